@@ -1,0 +1,1 @@
+// Derivative extraction over any AeroModel (cycle-averaged, central differences).

@@ -1,0 +1,86 @@
+// Frames, wing poses and mass state of the insect at time t.
+#include "core/configuration.hpp"
+#include "core/rotation.hpp"
+
+namespace flapstab {
+
+namespace {
+// Orientation, angular velocity and angular acceleration of R = Rz(-phi) Rx(-theta) Ry(alpha)
+// relative to its parent frame: omega = e_z(-phi') + R1 e_x(-theta') + R1 R2 e_y alpha'.
+void right_wing_rotation(const WingAngleState& a, Mat3& R, Vec3& w, Vec3& wd) {
+  const Mat3 R1 = rot_z(-a.phi), R2 = rot_x(-a.theta), R3 = rot_y(a.alpha);
+  const Vec3 e1 = Vec3::UnitZ(), e2 = R1 * Vec3::UnitX(), e3 = R1 * R2 * Vec3::UnitY();
+  const double d1 = -a.dphi, d2 = -a.dtheta, d3 = a.dalpha;
+  const double dd1 = -a.ddphi, dd2 = -a.ddtheta, dd3 = a.ddalpha;
+  R = R1 * R2 * R3;
+  const Vec3 w1 = e1 * d1, w12 = w1 + e2 * d2;
+  w = w12 + e3 * d3;
+  wd = e1 * dd1 + w1.cross(e2) * d2 + e2 * dd2 + w12.cross(e3) * d3 + e3 * dd3;
+}
+}  // namespace
+
+Configuration::Configuration(const Insect& insect, const Kinematics& kin)
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)) {
+  // O = cycle-mean CoM of body + wings, measured from the body CoM (trapezoid rule: spectral for periodic data).
+  constexpr int n = 256;
+  Vec3 sum = Vec3::Zero();
+  for (int i = 0; i < n; ++i) {
+    const double t = kin.period() * i / n;
+    sum += insect.wing.mass * (wing_cg_about_body_cg(Side::right, t) + wing_cg_about_body_cg(Side::left, t));
+  }
+  o_ = sum / n / insect.total_mass();
+}
+
+Vec3 Configuration::wing_cg_about_body_cg(Side s, double t) const {
+  Mat3 R;
+  Vec3 w, wd;
+  right_wing_rotation(kin_.angles(s, t), R, w, wd);
+  const Vec3 local = r_sa_ * insect_.wing.hinge + r_sp_ * R * insect_.wing.mass_centre;
+  return s == Side::right ? local : Vec3(mirror_y() * local);
+}
+
+WingPose Configuration::wing_pose(Side s, double t) const {
+  WingPose p;
+  p.side = s;
+  p.angles = kin_.angles(s, t);
+  Mat3 R;
+  Vec3 w, wd;
+  right_wing_rotation(p.angles, R, w, wd);
+  const Vec3 hinge = r_sa_ * insect_.wing.hinge;
+  p.axes = r_sp_ * R;
+  p.omega = r_sp_ * w;
+  p.omega_dot = r_sp_ * wd;
+  p.hinge = hinge;
+  if (s == Side::left) {
+    const Mat3 M = mirror_y();
+    p.axes = M * p.axes;
+    p.hinge = M * hinge;
+    p.omega = -(M * p.omega);
+    p.omega_dot = -(M * p.omega_dot);
+  }
+  p.hinge -= o_;
+  return p;
+}
+
+MassState Configuration::mass_state(double t) const {
+  MassState m;
+  m.body.mass = insect_.body.mass;
+  m.body.r = -o_;
+  m.body.inertia = r_sa_ * insect_.body.inertia * r_sa_.transpose();
+  for (Side s : {Side::right, Side::left}) {
+    const WingPose p = wing_pose(s, t);
+    PartMass& w = s == Side::right ? m.right : m.left;
+    const Vec3& xi = insect_.wing.mass_centre;
+    w.mass = insect_.wing.mass;
+    w.r = p.position(xi);
+    w.r_dot = p.velocity(xi);
+    w.r_ddot = p.acceleration(xi);
+    // The left wing's axes are improper, but A I A^T of a symmetric tensor is still its mirror image.
+    w.inertia = p.axes * insect_.wing.inertia_cg * p.axes.transpose();
+    w.omega = p.omega;
+    w.omega_dot = p.omega_dot;
+  }
+  return m;
+}
+
+}  // namespace flapstab

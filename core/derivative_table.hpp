@@ -1,0 +1,51 @@
+// The derivative table: reference quantities, mass properties and non-dimensional stability derivatives.
+//
+// File format (TOML, docs/file-formats.md): [reference] U, c, S_t, rho, frequency;
+// [mass] m, Ixx, Iyy, Izz, Ixz; [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
+// [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp).
+// Dimensional entries SI; derivatives non-dimensional in hover stability axes (ARCHITECTURE.md):
+// forces / (1/2 rho U^2 S_t), moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U.
+#pragma once
+#include <map>
+#include <optional>
+#include <string>
+#include "core/types.hpp"
+
+namespace flapstab {
+
+struct ReferenceQuantities {
+  double U = 0;          // m/s, reference speed 2 Phi n r2
+  double c = 0;          // m, mean chord
+  double S_t = 0;        // m^2, area of both wings
+  double rho = 0;        // kg/m^3
+  double frequency = 0;  // Hz, wingbeat frequency
+  double g = standard_gravity;  // m/s^2
+  double force_scale() const { return 0.5 * rho * U * U * S_t; }
+  double moment_scale() const { return force_scale() * c; }
+  double time_scale() const { return c / U; }  // s per unit non-dimensional time
+};
+
+struct MassProperties {
+  double m = 0;                          // kg
+  double Ixx = 0, Iyy = 0, Izz = 0, Ixz = 0;  // kg m^2, about O in stability axes
+};
+
+// Non-dimensional derivatives, 6 x 6: rows X Y Z L M N, columns u v w p q r.
+struct DerivativeTable {
+  ReferenceQuantities reference;
+  MassProperties mass;
+  Eigen::Matrix<double, 6, 6> nd = Eigen::Matrix<double, 6, 6>::Zero();
+  bool has_longitudinal = false, has_lateral = false, has_coupling = false;
+  std::string source;  // where the table came from (file path or "flapstab <model>")
+
+  // Element by name, e.g. "Xu", "Mq", "Lp" (rows X Y Z L M N, columns u v w p q r).
+  double& at(const std::string& name);
+  double at(const std::string& name) const;
+};
+
+// Reads a derivative table; throws InputError naming the file and key on any problem.
+DerivativeTable read_derivative_table(const std::string& path);
+// TOML text of the table (with a header comment giving axes, units and scalings).
+std::string derivative_table_toml(const DerivativeTable& table);
+
+}  // namespace flapstab

@@ -1,0 +1,35 @@
+// Input errors that carry the file, the key and what was expected, for messages users can act on.
+#pragma once
+#include <stdexcept>
+#include <string>
+
+namespace flapstab {
+
+// Thrown for any bad user input. what() reads "FILE: key 'KEY': PROBLEM (expected EXPECTED)".
+class InputError : public std::runtime_error {
+ public:
+  InputError(std::string file, std::string key, std::string problem, std::string expected = {})
+      : std::runtime_error(compose(file, key, problem, expected)),
+        file_(std::move(file)), key_(std::move(key)) {}
+  const std::string& file() const { return file_; }
+  const std::string& key() const { return key_; }
+
+ private:
+  static std::string compose(const std::string& file, const std::string& key,
+                             const std::string& problem, const std::string& expected) {
+    std::string s = file.empty() ? std::string("input") : file;
+    if (!key.empty()) s += ": key '" + key + "'";
+    s += ": " + problem;
+    if (!expected.empty()) s += " (expected " + expected + ")";
+    return s;
+  }
+  std::string file_, key_;
+};
+
+// Thrown when a numerical procedure cannot deliver (trim infeasible, solver failure).
+class SolveError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace flapstab

@@ -1,0 +1,72 @@
+// Insect morphology: planform integrals and rigid-body mass properties.
+#include "core/insect.hpp"
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace flapstab {
+
+Mat3 Body::ellipsoid_inertia() const {
+  const double a = length / 2, b = width / 2, c = height / 2;
+  return Eigen::Vector3d(mass * (b * b + c * c) / 5, mass * (a * a + c * c) / 5, mass * (a * a + b * b) / 5)
+      .asDiagonal();
+}
+
+double Wing::chord(double r) const {
+  const double x = r / length;
+  if (x < 0 || x > 1) return 0;
+  switch (planform) {
+    case Planform::elliptic:  // Berman & Wang 2007: c(r) = (4 c_bar / pi) sqrt(1 - (r/R)^2)
+      return 4 * mean_chord / pi * std::sqrt(std::max(0.0, 1 - x * x));
+    case Planform::rectangular:
+      return mean_chord;
+    case Planform::tabulated: {
+      auto it = std::upper_bound(table_r.begin(), table_r.end(), x);
+      if (it == table_r.begin()) return table_c.front() * mean_chord;
+      if (it == table_r.end()) return table_c.back() * mean_chord;
+      const std::size_t i = std::size_t(it - table_r.begin());
+      const double s = (x - table_r[i - 1]) / (table_r[i] - table_r[i - 1]);
+      return mean_chord * ((1 - s) * table_c[i - 1] + s * table_c[i]);
+    }
+  }
+  throw std::logic_error("unknown planform");
+}
+
+namespace {
+// Gauss-Legendre on [0, R] with many points, robust to the sqrt endpoint of the ellipse.
+template <class F>
+double span_integral(const Wing& w, F f) {
+  constexpr int n = 2000;  // midpoint rule; the ellipse's sqrt tip limits any rule to O(h^1.5)
+  const double h = w.length / n;
+  double s = 0;
+  for (int i = 0; i < n; ++i) {
+    const double r = (i + 0.5) * h;
+    s += f(r, w.chord(r)) * h;
+  }
+  return s;
+}
+}  // namespace
+
+double Wing::radius_of_moment(int k) const {
+  const double m = span_integral(*this, [k](double r, double c) { return std::pow(r, k) * c; });
+  const double s = span_integral(*this, [](double, double c) { return c; });
+  return std::pow(m / s, 1.0 / k);
+}
+
+void Wing::plate_mass_properties(Vec3& centre, Mat3& inertia_hinge) const {
+  // Chord segment at span r runs from x = -(1-x0) c (trailing edge) to x = x0 c (leading edge).
+  const double area_num = span_integral(*this, [](double, double c) { return c; });
+  const double sigma = mass / area_num;
+  const double x0 = pitch_axis;
+  auto xm = [x0](double c) { return (x0 - 0.5) * c; };                                   // segment centroid
+  auto x2 = [x0](double c) { return c * c * (x0 * x0 * x0 + std::pow(1 - x0, 3)) / 3; };  // segment mean of x^2
+  const double Sx = sigma * span_integral(*this, [&](double, double c) { return c * xm(c); });
+  const double Sy = sigma * span_integral(*this, [](double r, double c) { return c * r; });
+  const double Sxx = sigma * span_integral(*this, [&](double, double c) { return c * x2(c); });
+  const double Syy = sigma * span_integral(*this, [](double r, double c) { return c * r * r; });
+  const double Sxy = sigma * span_integral(*this, [&](double r, double c) { return c * xm(c) * r; });
+  centre = Vec3(Sx / mass, Sy / mass, 0);
+  inertia_hinge << Syy, -Sxy, 0, -Sxy, Sxx, 0, 0, 0, Sxx + Syy;
+}
+
+}  // namespace flapstab

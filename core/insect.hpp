@@ -1,0 +1,55 @@
+// The insect's morphology and mass properties: ellipsoidal body, two wings with planform, mass and hinge.
+//
+// Anatomical body frame A: origin at the body's own centre of mass (wings excluded), x along the
+// long axis towards the head, y to the right, z ventral. Wing frame (per wing, origin at the hinge):
+// x along the chord towards the leading edge (origin on the pitch axis), y along the span towards the
+// tip, z = x cross y (ventral for the right wing at rest). The left wing is the mirror image.
+#pragma once
+#include <string>
+#include <vector>
+#include "core/types.hpp"
+
+namespace flapstab {
+
+struct Body {
+  double mass = 0;       // kg, body only (wings excluded)
+  double length = 0;     // m, ellipsoid length along x_A (diameter)
+  double width = 0;      // m, along y_A
+  double height = 0;     // m, along z_A
+  Mat3 inertia = Mat3::Zero();  // kg m^2, about the body CoM in A (from the ellipsoid unless given)
+  double drag_coefficient = 0;  // body drag on the frontal ellipse area for each axis (0: neglected)
+  // Solid uniform ellipsoid inertia of this mass and these diameters.
+  Mat3 ellipsoid_inertia() const;
+};
+
+enum class Planform { elliptic, rectangular, tabulated };
+
+struct Wing {
+  double length = 0;        // R (m), hinge to tip
+  double mean_chord = 0;    // c_bar (m) = area / R
+  Planform planform = Planform::elliptic;
+  std::vector<double> table_r, table_c;  // tabulated: r/R in [0,1] and c/c_bar, increasing r
+  double pitch_axis = 0.25;  // x0: pitch axis position from the leading edge, fraction of local chord
+  double mass = 0;           // kg, one wing
+  Vec3 mass_centre = Vec3::Zero();    // wing frame, m (about the hinge)
+  Mat3 inertia_cg = Mat3::Zero();     // wing frame, about the wing CoM, kg m^2
+  Vec3 hinge = Vec3::Zero();          // right wing hinge in A (m); the left is its mirror
+
+  // Local chord c(r) (m) at distance r (m) from the hinge.
+  double chord(double r) const;
+  double area() const { return mean_chord * length; }   // one wing, m^2
+  // Radius of the k-th moment of area: (int r^k c dr / S)^(1/k) (m).
+  double radius_of_moment(int k) const;
+  // Mass centre and inertia (about the hinge, wing frame) of a thin plate of uniform areal density.
+  void plate_mass_properties(Vec3& centre, Mat3& inertia_hinge) const;
+};
+
+struct Insect {
+  std::string name;
+  Body body;
+  Wing wing;
+  double total_mass() const { return body.mass + 2 * wing.mass; }
+  double weight(double g = standard_gravity) const { return total_mass() * g; }
+};
+
+}  // namespace flapstab

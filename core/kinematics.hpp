@@ -1,0 +1,48 @@
+// Wing kinematics: stroke, deviation and pitch angle histories per wing, stroke plane, body angle, frequency.
+//
+// Angle conventions (docs/theory/conventions.md): for each wing, in its stroke-plane frame,
+//  - stroke (positional) angle phi: in the stroke plane, 0 = span perpendicular to the plane of
+//    symmetry, positive towards the head;
+//  - deviation theta: out of the stroke plane, positive towards the dorsal side (up in hover);
+//  - pitch (feathering) alpha: about the span axis, 0 = chord in the stroke plane with the leading
+//    edge pointing forward (towards the head), positive rotating the leading edge dorsally.
+//    A hovering downstroke (phi increasing) at 35 deg incidence has alpha = 35 deg; the upstroke
+//    at the same incidence has alpha = 145 deg; the wing passes alpha = 90 deg at the reversals.
+// The phase tau = t * frequency is in cycles; all series hold radians.
+#pragma once
+#include "core/series.hpp"
+#include "core/types.hpp"
+
+namespace flapstab {
+
+struct WingAngles {
+  AngleSeries stroke;     // phi
+  AngleSeries deviation;  // theta
+  AngleSeries pitch;      // alpha
+};
+
+// The three angles and their time derivatives (rad, rad/s, rad/s^2) at one instant.
+struct WingAngleState {
+  double phi = 0, theta = 0, alpha = 0;
+  double dphi = 0, dtheta = 0, dalpha = 0;
+  double ddphi = 0, ddtheta = 0, ddalpha = 0;
+};
+
+struct Kinematics {
+  double frequency_hz = 0;    // wingbeat frequency n
+  double stroke_plane = 0;    // beta (rad): stroke-plane inclination from the stability x-y plane, positive nose-up
+  double body_angle = 0;      // chi (rad): body long axis above the stability x axis, positive nose-up
+  WingAngles right, left;     // left uses the same conventions as right (mirror-image definitions)
+
+  double period() const { return 1.0 / frequency_hz; }
+  const WingAngles& wing(Side s) const { return s == Side::right ? right : left; }
+  WingAngles& wing(Side s) { return s == Side::right ? right : left; }
+  // Angles of one wing at time t (s).
+  WingAngleState angles(Side s, double t) const;
+  // True when left and right angle histories agree at every sampled phase (to 1e-14 rad).
+  bool symmetric() const;
+  // Stroke amplitude Phi (rad, peak to peak), the mean of the two wings.
+  double stroke_amplitude() const;
+};
+
+}  // namespace flapstab
