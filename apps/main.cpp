@@ -1,2 +1,46 @@
-// The flapstab command: dispatches to the subcommands in apps/.
-int main() { return 0; }
+// The flapstab command: parses arguments and dispatches to the subcommands in apps/commands.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "apps/commands.hpp"
+#include "core/errors.hpp"
+
+namespace {
+
+void add_common(CLI::App* sub, flapstab::CommandOptions& o) {
+  sub->add_option("case", o.case_path, "case file (TOML); see docs/case-file.md")->required()->check(CLI::ExistingFile);
+  sub->add_option("--json", o.json_path, "write the machine-readable results to this JSON file");
+  sub->add_option("-o,--output", o.output_dir, "write all outputs into this directory");
+  sub->add_flag("-q,--quiet", o.quiet, "print nothing on success");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"flapstab: hover trim, aerodynamic derivatives and flight stability of flapping-wing flyers.\n"
+               "Axes: hover stability axes (x forward, y right, z down, origin at the wingbeat-mean CoM). Units: SI."};
+  app.set_version_flag("--version", std::string("flapstab ") + FLAPSTAB_VERSION);
+  app.require_subcommand(1);
+  flapstab::CommandOptions o;
+  CLI::App* trim = app.add_subcommand("trim-hover", "cycle-averaged hover trim: kinematic parameters and attitude "
+                                                    "at which the mean force balances the weight and the mean moments vanish");
+  add_common(trim, o);
+  CLI::App* der = app.add_subcommand("derivatives", "trim, then the cycle-averaged stability derivatives "
+                                                    "(central differences in u, v, w, p, q, r)");
+  add_common(der, o);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (trim->parsed()) return flapstab::run_trim_hover(o);
+    if (der->parsed()) return flapstab::run_derivatives(o);
+  } catch (const flapstab::InputError& e) {
+    fmt::print(stderr, "flapstab: error: {}\n", e.what());
+    return 2;
+  } catch (const flapstab::SolveError& e) {
+    fmt::print(stderr, "flapstab: error: {}\n", e.what());
+    return 3;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "flapstab: error: {}\n", e.what());
+    return 1;
+  }
+  return 1;
+}

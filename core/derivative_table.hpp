@@ -1,6 +1,6 @@
 // The derivative table: reference quantities, mass properties and non-dimensional stability derivatives.
 //
-// File format (TOML, docs/file-formats.md): [reference] U, c, S_t, rho, frequency;
+// File format (TOML, docs/derivative-table.md): [reference] U, c, S_t, rho, frequency;
 // [mass] m, Ixx, Iyy, Izz, Ixz; [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
 // [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp).
 // Dimensional entries SI; derivatives non-dimensional in hover stability axes (ARCHITECTURE.md):
@@ -9,6 +9,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 #include "core/types.hpp"
 
 namespace flapstab {
@@ -47,5 +48,14 @@ struct DerivativeTable {
 DerivativeTable read_derivative_table(const std::string& path);
 // TOML text of the table (with a header comment giving axes, units and scalings).
 std::string derivative_table_toml(const DerivativeTable& table);
+// Writes derivative_table_toml(table) to path atomically (temporary file, then rename).
+void write_derivative_table(const DerivativeTable& table, const std::string& path);
+
+// Name of entry (row, col) of DerivativeTable::nd, e.g. (4, 4) -> "Mq".
+std::string derivative_name(int row, int col);
+// The nine names of each section, in file order; coupling names are the other 18.
+const std::vector<std::string>& longitudinal_derivative_names();
+const std::vector<std::string>& lateral_derivative_names();
+const std::vector<std::string>& coupling_derivative_names();
 
 }  // namespace flapstab

@@ -33,15 +33,53 @@ double Wing::chord(double r) const {
 }
 
 namespace {
-// Gauss-Legendre on [0, R] with many points, robust to the sqrt endpoint of the ellipse.
+// Gauss-Legendre nodes and weights on [-1, 1] (Golub-Welsch by Newton on P_n), computed once.
+struct Gauss {
+  std::vector<double> x, w;
+  explicit Gauss(int n) {
+    for (int i = 0; i < n; ++i) {
+      double z = std::cos(pi * (i + 0.75) / (n + 0.5)), dp = 0;
+      for (int it = 0; it < 100; ++it) {
+        double p0 = 1, p1 = 0;
+        for (int k = 0; k < n; ++k) {
+          const double p2 = p1;
+          p1 = p0;
+          p0 = ((2 * k + 1) * z * p1 - k * p2) / (k + 1);
+        }
+        dp = n * (z * p0 - p1) / (z * z - 1);
+        const double dz = p0 / dp;
+        z -= dz;
+        if (std::abs(dz) < 1e-16) break;
+      }
+      x.push_back(z);
+      w.push_back(2 / ((1 - z * z) * dp * dp));
+    }
+  }
+};
+
+// Integral over the span of f(r, c(r)) dr. Analytic planforms: r = R sin(t), which removes the
+// square-root tip of the ellipse, then 64-point Gauss-Legendre in t (exact to round-off for the
+// polynomial moments used here). Tabulated: 4-point Gauss on each linear segment (exact for r^k c^m,
+// k + m <= 7).
 template <class F>
 double span_integral(const Wing& w, F f) {
-  constexpr int n = 2000;  // midpoint rule; the ellipse's sqrt tip limits any rule to O(h^1.5)
-  const double h = w.length / n;
   double s = 0;
-  for (int i = 0; i < n; ++i) {
-    const double r = (i + 0.5) * h;
-    s += f(r, w.chord(r)) * h;
+  if (w.planform == Planform::tabulated) {
+    static const Gauss g(4);
+    for (std::size_t i = 1; i < w.table_r.size(); ++i) {
+      const double a = w.table_r[i - 1] * w.length, b = w.table_r[i] * w.length;
+      for (std::size_t k = 0; k < g.x.size(); ++k) {
+        const double r = 0.5 * (a + b) + 0.5 * (b - a) * g.x[k];
+        s += 0.5 * (b - a) * g.w[k] * f(r, w.chord(r));
+      }
+    }
+    return s;
+  }
+  static const Gauss g(64);
+  for (std::size_t k = 0; k < g.x.size(); ++k) {
+    const double t = pi / 4 * (1 + g.x[k]);  // [0, pi/2]
+    const double r = w.length * std::sin(t);
+    s += pi / 4 * g.w[k] * f(r, w.chord(r)) * w.length * std::cos(t);
   }
   return s;
 }

@@ -1,0 +1,19 @@
+// The flapstab subcommands as library functions (the CLI in main.cpp only parses arguments).
+#pragma once
+#include <string>
+
+namespace flapstab {
+
+struct CommandOptions {
+  std::string case_path;     // CASE.toml
+  std::string json_path;     // --json FILE ("" = none)
+  std::string output_dir;    // -o DIR ("" = none)
+  bool quiet = false;
+};
+
+// Each returns the process exit status; errors are thrown (InputError, SolveError) and mapped to
+// exit statuses by main().
+int run_trim_hover(const CommandOptions& o);
+int run_derivatives(const CommandOptions& o);
+
+}  // namespace flapstab

@@ -1,0 +1,95 @@
+// gnuplot-drawn SVG figures: data and script go to a temporary directory, gnuplot writes the SVG.
+#include "apps/plots.hpp"
+
+#include <cstdlib>
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+namespace flapstab {
+
+namespace {
+std::string quote(const std::string& s) {
+  std::string o;
+  for (char c : s) o += (c == '"' ? '\'' : c);
+  return "\"" + o + "\"";
+}
+
+std::optional<std::string> run_gnuplot(const std::string& script, const std::vector<std::string>& data,
+                                       std::string& why) {
+  if (!gnuplot_available()) {
+    why = "gnuplot not found (install Debian's gnuplot-nox for figures)";
+    return std::nullopt;
+  }
+  namespace fs = std::filesystem;
+  static int counter = 0;
+  const fs::path dir = fs::temp_directory_path() / fmt::format("flapstab_plot_{}_{}", ::getpid(), counter++);
+  fs::create_directories(dir);
+  for (std::size_t i = 0; i < data.size(); ++i) std::ofstream(dir / fmt::format("d{}.dat", i)) << data[i];
+  const fs::path svg = dir / "out.svg";
+  std::ofstream(dir / "plot.gp") << "set terminal svg size 720,420 dynamic enhanced font 'sans,12' background rgb 'white'\n"
+                                 << "set output " << quote(svg.string()) << "\ncd " << quote(dir.string()) << "\n"
+                                 << script;
+  const std::string cmd = "gnuplot " + quote((dir / "plot.gp").string()) + " > " + quote((dir / "log.txt").string()) + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::optional<std::string> out;
+  if (rc == 0 && fs::exists(svg)) {
+    std::ifstream in(svg);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    out = ss.str();
+  } else {
+    std::ifstream in(dir / "log.txt");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    why = "gnuplot failed: " + ss.str();
+  }
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+  return out;
+}
+}  // namespace
+
+bool gnuplot_available() {
+  static const bool ok = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
+  return ok;
+}
+
+std::optional<std::string> render_svg(const LinePlot& p, std::string& why) {
+  std::string script = fmt::format("set title {}\nset xlabel {}\nset ylabel {}\nset grid\nset key outside right\n",
+                                   quote(p.title), quote(p.xlabel), quote(p.ylabel));
+  if (p.zero_axes) script += "set xzeroaxis lt -1\nset yzeroaxis lt -1\nset offsets graph 0.1, graph 0.1, graph 0.1, graph 0.1\n";
+  std::vector<std::string> data;
+  std::string plot = "plot ";
+  for (std::size_t i = 0; i < p.series.size(); ++i) {
+    std::string d;
+    for (std::size_t k = 0; k < p.series[i].x.size(); ++k) d += fmt::format("{:.10g} {:.10g}\n", p.series[i].x[k], p.series[i].y[k]);
+    data.push_back(d);
+    plot += fmt::format("{}'d{}.dat' using 1:2 with {} lw 2 title {}", i ? ", " : "", i,
+                        p.points_only ? "points pt 7 ps 1.2" : "lines", quote(p.series[i].title));
+  }
+  return run_gnuplot(script + plot + "\n", data, why);
+}
+
+std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {
+  std::string d = "state";
+  for (const auto& g : p.groups) d += " " + quote(g.title);
+  d += "\n";
+  for (std::size_t c = 0; c < p.categories.size(); ++c) {
+    d += quote(p.categories[c]);
+    for (const auto& g : p.groups) d += fmt::format(" {:.10g}", c < g.values.size() ? g.values[c] : 0.0);
+    d += "\n";
+  }
+  std::string script = fmt::format(
+      "set title {}\nset ylabel {}\nset style data histograms\nset style histogram clustered gap 1\n"
+      "set style fill solid 0.8 border -1\nset grid ytics\nset key outside right\nset yrange [0:*]\n",
+      quote(p.title), quote(p.ylabel));
+  std::string plot = "plot ";
+  for (std::size_t i = 0; i < p.groups.size(); ++i)
+    plot += fmt::format("{}'d0.dat' using {}:xtic(1) title columnheader", i ? ", " : "", i + 2);
+  return run_gnuplot(script + plot + "\n", {d}, why);
+}
+
+}  // namespace flapstab

@@ -1,0 +1,37 @@
+// Figures for reports, drawn by gnuplot (Debian gnuplot-nox) as SVG text; absent gnuplot is reported, not fatal.
+#pragma once
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace flapstab {
+
+bool gnuplot_available();
+
+struct Series {
+  std::string title;
+  std::vector<double> x, y;
+};
+
+struct LinePlot {
+  std::string title, xlabel, ylabel;
+  std::vector<Series> series;
+  bool points_only = false;     // scatter (eigenvalue maps) instead of lines
+  bool zero_axes = false;       // draw the x = 0 and y = 0 axes
+};
+
+// Renders the plot as an SVG document; std::nullopt (and a reason in `why`) if gnuplot is missing or fails.
+std::optional<std::string> render_svg(const LinePlot& plot, std::string& why);
+
+struct BarGroup {                 // one group per mode; one bar per category (state)
+  std::string title;
+  std::vector<double> values;
+};
+struct BarPlot {
+  std::string title, ylabel;
+  std::vector<std::string> categories;
+  std::vector<BarGroup> groups;
+};
+std::optional<std::string> render_svg(const BarPlot& plot, std::string& why);
+
+}  // namespace flapstab

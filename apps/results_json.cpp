@@ -1,0 +1,114 @@
+// JSON forms of trim and derivative results.
+#include "apps/results_json.hpp"
+#include <fmt/format.h>
+#include <fstream>
+#include <iterator>
+#include "core/series.hpp"
+
+namespace flapstab {
+
+using nlohmann::json;
+
+std::string file_hash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::uint64_t h = 1469598103934665603ULL;
+  for (std::istreambuf_iterator<char> it(in), end; it != end; ++it) {
+    h ^= std::uint8_t(*it);
+    h *= 1099511628211ULL;
+  }
+  return fmt::format("{:016x}", h);
+}
+
+json metadata_json(const Case& c, const std::string& command) {
+  return {{"program", "flapstab"},
+          {"version", FLAPSTAB_VERSION},
+          {"command", command},
+          {"case_file", c.path},
+          {"case_fnv1a64", file_hash(c.path)},
+          {"insect", c.insect.name},
+          {"aero_model", c.aero.model},
+          {"conventions",
+           {{"axes", "hover stability axes: body-fixed, origin at the wingbeat-mean centre of mass, x forward and "
+                     "horizontal at trim, y right, z down; gravity +z"},
+            {"units", "SI unless a key says otherwise (_deg, _nd)"},
+            {"nondimensionalisation",
+             "U = 2 Phi n r2, c = mean chord, S_t = both wings; forces / (rho U^2 S_t / 2), moments / (rho U^2 S_t c "
+             "/ 2), velocities / U, rates * c / U"}}}};
+}
+
+json kinematics_json(const Kinematics& k) {
+  auto angle = [](const AngleSeries& a) {
+    json j;
+    if (const FourierSeries* f = a.fourier()) {
+      std::vector<double> c, s;
+      for (double x : f->a) c.push_back(x / deg);
+      for (double x : f->b) s.push_back(x / deg);
+      j = {{"type", "fourier"}, {"mean_deg", f->mean / deg}, {"cos_deg", c}, {"sin_deg", s}};
+    } else {
+      std::vector<double> v, d;
+      for (double x : a.hermite()->values) v.push_back(x / deg);
+      for (double x : a.hermite()->slopes) d.push_back(x / deg);
+      j = {{"type", "hermite"}, {"values_deg", v}, {"slopes_deg_per_cycle", d}};
+    }
+    return j;
+  };
+  auto wing = [&](const WingAngles& w) {
+    return json{{"stroke", angle(w.stroke)}, {"deviation", angle(w.deviation)}, {"pitch", angle(w.pitch)}};
+  };
+  return {{"frequency_hz", k.frequency_hz},
+          {"stroke_plane_deg", k.stroke_plane / deg},
+          {"body_angle_deg", k.body_angle / deg},
+          {"stroke_amplitude_deg", k.stroke_amplitude() / deg},
+          {"right", wing(k.right)},
+          {"left", wing(k.left)}};
+}
+
+json trim_json(const TrimResult& r) {
+  json params = json::array();
+  for (const auto& p : r.parameters)
+    params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"initial", p.initial},
+                      {"lower", p.lower}, {"upper", p.upper}});
+  return {{"converged", r.converged},
+          {"solver", r.solver},
+          {"objective", r.objective},
+          {"message", r.message},
+          {"iterations", r.iterations},
+          {"model_runs", r.model_runs},
+          {"equations", r.equations},
+          {"parameters", params},
+          {"residuals",
+           {{"force_N", {r.force_residual.x(), r.force_residual.y(), r.force_residual.z()}},
+            {"moment_N_m", {r.moment_residual.x(), r.moment_residual.y(), r.moment_residual.z()}},
+            {"force_relative_to_weight", r.relative_force_residual},
+            {"moment_relative_to_weight_times_wing_length", r.relative_moment_residual}}},
+          {"weight_N", r.weight},
+          {"mean_aerodynamic_power_W", r.mean_power},
+          {"kinematics", kinematics_json(r.kinematics)}};
+}
+
+json derivatives_json(const DerivativeResult& d) {
+  static const char* rows = "XYZLMN";
+  static const char* cols[] = {"u", "v", "w", "p", "q", "r"};
+  json nd, si;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) {
+      const std::string name = std::string(1, rows[i]) + cols[j];
+      nd[name] = d.table.nd(i, j);
+      si[name] = d.si(i, j);
+    }
+  const auto& ref = d.table.reference;
+  const auto& m = d.table.mass;
+  return {{"reference", {{"U_m_s", ref.U}, {"c_m", ref.c}, {"S_t_m2", ref.S_t}, {"rho_kg_m3", ref.rho},
+                         {"frequency_hz", ref.frequency}, {"g_m_s2", ref.g}}},
+          {"mass", {{"m_kg", m.m}, {"Ixx_kg_m2", m.Ixx}, {"Iyy_kg_m2", m.Iyy}, {"Izz_kg_m2", m.Izz},
+                    {"Ixz_kg_m2", m.Ixz}}},
+          {"nondimensional", nd},
+          {"si", si},
+          {"si_units", "X, Y, Z in N and L, M, N in N m; per m/s for u, v, w and per rad/s for p, q, r"},
+          {"velocity_step_m_s", d.velocity_step},
+          {"rate_step_rad_s", d.rate_step},
+          {"model_runs", d.model_runs},
+          {"source", d.table.source}};
+}
+
+}  // namespace flapstab

@@ -1,0 +1,24 @@
+// Builds the aerodynamic model a case file asks for.
+#include "cfd/aero_factory.hpp"
+#include "cfd/quasi_steady/quasi_steady.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab {
+
+std::unique_ptr<AeroModel> make_aero_model(const Case& c) {
+  if (c.aero.model == "quasi-steady") {
+    QuasiSteadyOptions o;
+    o.rho = c.fluid.density;
+    o.coefficients = c.aero.quasi_steady.coefficients == "berman-wang" ? CoefficientSet::berman_wang
+                                                                        : CoefficientSet::robofly;
+    o.blade_elements = c.aero.quasi_steady.blade_elements;
+    o.rotational = c.aero.quasi_steady.rotational;
+    o.added_mass = c.aero.quasi_steady.added_mass;
+    o.samples_per_cycle = c.aero.quasi_steady.samples_per_cycle;
+    return std::make_unique<QuasiSteadyModel>(o);
+  }
+  throw InputError(c.path, "aero.model", "the Navier-Stokes CFD model is not available in this version",
+                   "\"quasi-steady\"");
+}
+
+}  // namespace flapstab

@@ -1,0 +1,246 @@
+// Quasi-steady blade-element aerodynamics: per-strip translational, rotational and added-mass loads.
+//
+// Every formula is derived, with its source, in docs/theory/quasi-steady.md (section numbers below).
+#include "cfd/quasi_steady/quasi_steady.hpp"
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace flapstab {
+
+namespace {
+
+// sgn with sgn(0) = +1, so that every direction below is defined at the fold points.
+double sgn(double x) { return x < 0 ? -1.0 : 1.0; }
+
+// Gauss-Legendre nodes and weights on [-1, 1] (Newton on the three-term Legendre recurrence).
+void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
+  x.assign(std::size_t(n), 0.0);
+  w.assign(std::size_t(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    double z = std::cos(pi * (i + 0.75) / (n + 0.5));
+    double dp = 1;
+    for (int it = 0; it < 100; ++it) {
+      double p0 = 1, p1 = z;
+      for (int k = 2; k <= n; ++k) {
+        const double p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = n * (z * p1 - p0) / (z * z - 1);
+      const double dz = p1 / dp;
+      z -= dz;
+      if (std::abs(dz) <= 1e-15) break;
+    }
+    x[std::size_t(i)] = z;
+    w[std::size_t(i)] = 2 / ((1 - z * z) * dp * dp);
+  }
+}
+
+}  // namespace
+
+// Section 3: Robofly fits (Dickinson, Lehmann & Sane 1999; Sane & Dickinson 2001) and the
+// Berman & Wang 2007 thin-plate set, alpha folded into [0, pi/2].
+TranslationalCoefficients translational_coefficients(CoefficientSet set, double alpha) {
+  switch (set) {
+    case CoefficientSet::robofly: {
+      // The fit does not vanish at 0 and 90 deg (0.027 and 0.103), where the lift direction reverses;
+      // analytic end corrections C_L(0) cos^64 + C_L(90) sin^64 make it vanish there so that the force is
+      // continuous. They change C_L by less than 2e-3 between 20 and 70 deg (the fit itself scatters more).
+      auto fit = [](double a_deg) { return 0.225 + 1.58 * std::sin((2.13 * a_deg - 7.20) * deg); };
+      const double a = alpha / deg, c2 = std::pow(std::cos(alpha), 2), s2 = std::pow(std::sin(alpha), 2);
+      const double lift = fit(a) - fit(0) * std::pow(c2, 32) - fit(90) * std::pow(s2, 32);
+      return {lift, 1.92 - 1.55 * std::cos((2.04 * a - 9.82) * deg)};
+    }
+    case CoefficientSet::berman_wang: {
+      constexpr double c_t = 1.678, c_d0 = 0.07, c_d90 = 3.06;
+      const double s = std::sin(alpha), c = std::cos(alpha);
+      return {c_t * 2 * s * c, c_d0 * c * c + c_d90 * s * s};
+    }
+  }
+  throw std::logic_error("unknown coefficient set");
+}
+
+// Degree-9 interpolation at the Chebyshev points of each of 64 equal pieces of t in [0, 1]; the
+// coefficients are entire in alpha = 2 atan(t), whose nearest singularities (t = +-i) are far from
+// the pieces, so the interpolation error is at round-off level.
+CoefficientFit::CoefficientFit(CoefficientSet set) {
+  constexpr int m = degree + 1;
+  Eigen::Matrix<double, m, m> vandermonde;
+  Eigen::Matrix<double, m, 2> values;
+  for (int j = 0; j < pieces; ++j) {
+    for (int k = 0; k < m; ++k) {
+      const double u = std::cos(pi * (k + 0.5) / m);
+      for (int p = 0; p < m; ++p) vandermonde(k, p) = std::pow(u, p);
+      const TranslationalCoefficients c = translational_coefficients(set, 2 * std::atan((j + 0.5 * (u + 1)) / pieces));
+      values(k, 0) = c.lift;
+      values(k, 1) = c.drag;
+    }
+    const Eigen::Matrix<double, m, 2> coef = vandermonde.colPivHouseholderQr().solve(values);
+    for (int p = 0; p < m; ++p) {
+      lift_[std::size_t(j)][std::size_t(p)] = coef(p, 0);
+      drag_[std::size_t(j)][std::size_t(p)] = coef(p, 1);
+    }
+  }
+}
+
+TranslationalCoefficients CoefficientFit::operator()(double t) const {
+  const double x = t * pieces;
+  const int j = std::clamp(int(x), 0, pieces - 1);
+  const double u = 2 * (x - j) - 1;
+  const auto &l = lift_[std::size_t(j)], &d = drag_[std::size_t(j)];
+  double cl = l[degree], cd = d[degree];
+  for (int p = degree - 1; p >= 0; --p) {
+    cl = cl * u + l[std::size_t(p)];
+    cd = cd * u + d[std::size_t(p)];
+  }
+  return {cl, cd};
+}
+
+// Section 2: int_0^R f c dr = int_0^{pi/2} f(R sin th) c(R sin th) R cos th dth, Gauss-Legendre in th.
+SpanQuadrature span_quadrature(const Wing& wing, int n) {
+  if (n < 1) throw std::invalid_argument("span_quadrature: need at least one blade element");
+  std::vector<double> x, w;
+  gauss_legendre(n, x, w);
+  SpanQuadrature q;
+  q.r.resize(std::size_t(n));
+  q.w.resize(std::size_t(n));
+  q.c.resize(std::size_t(n));
+  for (std::size_t i = 0; i < std::size_t(n); ++i) {
+    const double th = pi / 4 * (1 + x[i]);
+    q.r[i] = wing.length * std::sin(th);
+    q.w[i] = wing.length * std::cos(th) * pi / 4 * w[i];
+    q.c[i] = wing.chord(q.r[i]);
+  }
+  return q;
+}
+
+QuasiSteadyModel::QuasiSteadyModel(QuasiSteadyOptions o) : opt_(o), fit_(o.coefficients) {
+  if (!(opt_.rho > 0)) throw std::invalid_argument("quasi-steady model: fluid density must be > 0");
+  if (opt_.blade_elements < 1) throw std::invalid_argument("quasi-steady model: blade_elements must be >= 1");
+  if (opt_.samples_per_cycle < 1) throw std::invalid_argument("quasi-steady model: samples_per_cycle must be >= 1");
+}
+
+std::string QuasiSteadyModel::name() const {
+  return opt_.coefficients == CoefficientSet::robofly ? "quasi-steady (robofly)" : "quasi-steady (berman-wang)";
+}
+
+WrenchHistory QuasiSteadyModel::run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
+                                    const AeroRunOptions& options) const {
+  if (!(kin.frequency_hz > 0)) throw std::invalid_argument("quasi-steady model: wingbeat frequency must be > 0");
+  const int n = options.samples_per_cycle > 0 ? options.samples_per_cycle : opt_.samples_per_cycle;
+  const Configuration config(insect, kin);
+  const SpanQuadrature span = span_quadrature(insect.wing, opt_.blade_elements);
+  WrenchHistory h;
+  h.samples.reserve(std::size_t(n));
+  for (int k = 0; k < n; ++k) h.samples.push_back(loads(config, span, kin.period() * k / n, motion));
+  return h;
+}
+
+WrenchSample QuasiSteadyModel::instantaneous(const Insect& insect, const Kinematics& kin, double t,
+                                             const BodyMotion& motion) const {
+  const Configuration config(insect, kin);
+  return loads(config, span_quadrature(insect.wing, opt_.blade_elements), t, motion);
+}
+
+WrenchSample QuasiSteadyModel::loads(const Configuration& config, const SpanQuadrature& span, double t,
+                                     const BodyMotion& motion) const {
+  WrenchSample s;
+  s.time = t;
+  const double x0 = config.insect().wing.pitch_axis;
+  double power_right = 0, power_left = 0;
+  s.right = wing_loads(config.wing_pose(Side::right, t), x0, span, motion, power_right);
+  s.left = wing_loads(config.wing_pose(Side::left, t), x0, span, motion, power_left);
+  s.body = body_loads(config, motion);
+  s.power = power_right + power_left;
+  return s;
+}
+
+// Sections 1-6 for one wing. A wing point with hinge offset d = r e_s + x e_c moves relative to still
+// air with V = V0 + r V_s + x V_c (rigid wing, steady body motion), so every per-strip quantity is a
+// combination of a few per-wing vectors; strips only evaluate scalars.
+Wrench QuasiSteadyModel::wing_loads(const WingPose& pose, double x0, const SpanQuadrature& span,
+                                    const BodyMotion& motion, double& power) const {
+  const Vec3 ec = pose.axes.col(0), es = pose.axes.col(1), en = pose.axes.col(2);
+  const Vec3& w = pose.omega;
+  const Vec3& wb = motion.rate;
+  const Vec3 ww = wb + w;  // total wing angular velocity Omega_w
+  // Section 1: V = v + Omega_b x p + omega x d with p = hinge + d.
+  const Vec3 v0 = motion.velocity + wb.cross(pose.hinge), vs = ww.cross(es), vc = ww.cross(ec);
+  const double v0c = v0.dot(ec), vsc = vs.dot(ec), v0n = v0.dot(en), vsn = vs.dot(en);
+  // Section 4: rotation rate about the span; kappa = +1 for proper (right) axes, -1 for mirrored (left).
+  const double omega_span = ww.dot(es);
+  const double kappa = sgn(es.cross(en).dot(ec));
+  // Section 5: d(V.n)/dt = (dV/dt|_S).n + V.(omega x n), dV/dt|_S = a_rel + Omega_b x V_rel at a wing point.
+  const Vec3 ws = w.cross(es), wc = w.cross(ec), ndot = w.cross(en);
+  const double as_n = (pose.omega_dot.cross(es) + w.cross(ws) + wb.cross(ws)).dot(en);
+  const double ac_n = (pose.omega_dot.cross(ec) + w.cross(wc) + wb.cross(wc)).dot(en);
+  const double v0_nd = v0.dot(ndot), vs_nd = vs.dot(ndot), vc_nd = vc.dot(ndot);
+
+  const double rho = opt_.rho;
+  const double c_rot = pi * (0.75 - x0);
+  double f_c = 0, f_n = 0;              // force components along e_c and e_n
+  double m_rc = 0, m_rn = 0, m_xn = 0;  // sums of r f_c, r f_n and x f_n (x: chordwise application point)
+  for (std::size_t i = 0; i < span.r.size(); ++i) {
+    const double r = span.r[i], c = span.c[i], dr = span.w[i];
+    // Section 1: air velocity relative to the strip's pitch-axis point, spanwise part removed.
+    const double uc = -(v0c + r * vsc), un = -(v0n + r * vsn);
+    const double u2 = uc * uc + un * un, u = std::sqrt(u2);
+    double fc = 0, fn = 0;  // circulatory, at the quarter chord
+    if (u > 0) {
+      // Section 3: alpha = angle between chord line and U_perp in [0, 90 deg]; tan(alpha/2) = |U_n| / (|U| + |U_c|).
+      const TranslationalCoefficients k = fit_(std::abs(un) / (u + std::abs(uc)));
+      // dF = 1/2 rho |U| c dr [C_D U_perp + C_L sigma (U_c e_n - U_n e_c)], sigma = sgn(U_c) sgn(U_n).
+      const double q = 0.5 * rho * u * c * dr, sigma = sgn(uc) * sgn(un);
+      fc = q * (k.drag * uc - sigma * k.lift * un);
+      fn = q * (k.drag * un + sigma * k.lift * uc);
+    }
+    // Section 4: rotational circulation Gamma = C_rot c^2 alphadot (Sane & Dickinson 2002; thin-aerofoil
+    // theory) with its Kutta-Joukowski force rho Gamma x U, perpendicular to U_perp: continuous through
+    // every angle of attack, so the cycle means are differentiable in the body velocities.
+    if (opt_.rotational) {
+      const double g = c_rot * rho * c * c * dr * kappa * omega_span;
+      fc -= g * un;
+      fn += g * uc;
+    }
+    const double xq = (x0 - 0.25) * c;
+    f_c += fc;
+    f_n += fn;
+    m_rc += r * fc;
+    m_rn += r * fn;
+    m_xn += xq * fn;
+    if (opt_.added_mass) {
+      // Section 5: dF_am = -rho pi/4 c^2 dr d(w_mid)/dt along e_n, at the mid chord x_m = (x0 - 1/2) c.
+      const double xm = (x0 - 0.5) * c;
+      const double wdot = r * as_n + xm * ac_n + v0_nd + r * vs_nd + xm * vc_nd;
+      const double fam = -rho * pi / 4 * c * c * dr * wdot;
+      f_n += fam;
+      m_rn += r * fam;
+      m_xn += xm * fam;
+    }
+  }
+  // Section 7: moment about O = hinge x F + sum (r e_s + x e_c) x (f_c e_c + f_n e_n).
+  Wrench out;
+  out.force = f_c * ec + f_n * en;
+  out.moment = pose.hinge.cross(out.force) + m_rc * es.cross(ec) + m_rn * es.cross(en) + m_xn * ec.cross(en);
+  // Section 7: P = -sum dF . V_rel, V_rel = r (omega x e_s) + x (omega x e_c); (omega x e_c).e_c = 0.
+  power = -(ws.dot(ec) * m_rc + ws.dot(en) * m_rn + wc.dot(en) * m_xn);
+  return out;
+}
+
+// Section 6: quadratic body drag per anatomical axis on the projected ellipse areas, at the body CoM.
+Wrench QuasiSteadyModel::body_loads(const Configuration& config, const BodyMotion& motion) const {
+  const Body& b = config.insect().body;
+  Wrench out;
+  if (!(b.drag_coefficient > 0)) return out;
+  const Mat3& r_sa = config.anatomical_to_stability();
+  const Vec3 pc = config.body_centre();
+  const Vec3 va = r_sa.transpose() * (motion.velocity + motion.rate.cross(pc));
+  const Vec3 area = pi / 4 * Vec3(b.width * b.height, b.length * b.height, b.length * b.width);
+  const Vec3 fa = -0.5 * opt_.rho * b.drag_coefficient * area.cwiseProduct(va.cwiseAbs()).cwiseProduct(va);
+  out.force = r_sa * fa;
+  out.moment = pc.cross(out.force);
+  return out;
+}
+
+}  // namespace flapstab

@@ -1,0 +1,376 @@
+// Case-file parsing and validation (toml++). Every key is checked; unknown keys are errors.
+#include "core/case_file.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fmt/format.h>
+#include <set>
+#include <toml++/toml.h>
+
+#include "core/errors.hpp"
+#include "core/flusi_kinematics.hpp"
+
+namespace flapstab {
+
+namespace {
+
+// A TOML table with the file and dotted path it came from; remembers which keys were read so
+// that leftovers (typos) can be reported.
+class Section {
+ public:
+  Section(const toml::table* t, std::string file, std::string path)
+      : t_(t), file_(std::move(file)), path_(std::move(path)) {}
+
+  bool present() const { return t_ != nullptr; }
+  bool has(const std::string& k) const { return t_ && t_->contains(k); }
+  std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  [[noreturn]] void fail(const std::string& k, const std::string& problem, const std::string& expected) const {
+    throw InputError(file_, key(k), problem, expected);
+  }
+
+  const toml::node* node(const std::string& k) {
+    used_.insert(k);
+    return t_ ? t_->get(k) : nullptr;
+  }
+
+  Section sub(const std::string& k, bool required) {
+    const toml::node* n = node(k);
+    if (!n) {
+      if (required) fail(k, "missing section", "a table [" + key(k) + "]");
+      return Section(nullptr, file_, key(k));
+    }
+    if (!n->is_table()) fail(k, "is not a table", "a table [" + key(k) + "]");
+    return Section(n->as_table(), file_, key(k));
+  }
+
+  double number(const std::string& k, const std::string& expected) {
+    const toml::node* n = node(k);
+    if (!n) fail(k, "missing", expected);
+    return to_number(k, *n, expected);
+  }
+  double number_or(const std::string& k, double dflt, const std::string& expected) {
+    return has(k) ? number(k, expected) : (node(k), dflt);
+  }
+  double positive(const std::string& k, const std::string& unit) {
+    const double v = number(k, "a positive number in " + unit);
+    if (!(v > 0)) fail(k, fmt::format("must be positive, got {}", v), "a positive number in " + unit);
+    return v;
+  }
+  double positive_or(const std::string& k, double dflt, const std::string& unit) {
+    return has(k) ? positive(k, unit) : (node(k), dflt);
+  }
+  int integer_or(const std::string& k, int dflt, int lo, int hi) {
+    const toml::node* n = node(k);
+    const std::string expected = fmt::format("an integer in [{}, {}]", lo, hi);
+    if (!n) return dflt;
+    if (!n->is_integer()) fail(k, "is not an integer", expected);
+    const auto v = n->as_integer()->get();
+    if (v < lo || v > hi) fail(k, fmt::format("out of range: {}", v), expected);
+    return int(v);
+  }
+  bool boolean_or(const std::string& k, bool dflt) {
+    const toml::node* n = node(k);
+    if (!n) return dflt;
+    if (!n->is_boolean()) fail(k, "is not a boolean", "true or false");
+    return n->as_boolean()->get();
+  }
+  std::string string(const std::string& k, bool required, const std::string& dflt = {},
+                     const std::vector<std::string>& allowed = {}) {
+    const toml::node* n = node(k);
+    std::string expected = "a string";
+    if (!allowed.empty()) {
+      expected = "one of";
+      for (const auto& a : allowed) expected += " \"" + a + "\"";
+    }
+    if (!n) {
+      if (required) fail(k, "missing", expected);
+      return dflt;
+    }
+    if (!n->is_string()) fail(k, "is not a string", expected);
+    std::string v = n->as_string()->get();
+    if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end())
+      fail(k, "unknown value \"" + v + "\"", expected);
+    return v;
+  }
+  std::vector<double> numbers(const std::string& k, const std::string& expected, bool required) {
+    const toml::node* n = node(k);
+    if (!n) {
+      if (required) fail(k, "missing", expected);
+      return {};
+    }
+    if (!n->is_array()) fail(k, "is not an array", expected);
+    std::vector<double> out;
+    for (const auto& e : *n->as_array()) out.push_back(to_number(k, e, expected));
+    return out;
+  }
+  // Throws if the table holds a key that was never read.
+  void reject_unknown(const std::vector<std::string>& also_allowed = {}) const {
+    if (!t_) return;
+    for (const auto& [k, v] : *t_) {
+      const std::string name(k.str());
+      if (!used_.count(name) && std::find(also_allowed.begin(), also_allowed.end(), name) == also_allowed.end())
+        fail(name, "unknown key", "only the keys documented in docs/case-file.md");
+    }
+  }
+  const std::string& file() const { return file_; }
+  const toml::table* table() const { return t_; }
+
+ private:
+  double to_number(const std::string& k, const toml::node& n, const std::string& expected) const {
+    double v;
+    if (n.is_floating_point()) v = n.as_floating_point()->get();
+    else if (n.is_integer()) v = double(n.as_integer()->get());
+    else fail(k, "is not a number", expected);
+    if (!std::isfinite(v)) fail(k, "is not finite", expected);
+    return v;
+  }
+  const toml::table* t_;
+  std::string file_, path_;
+  std::set<std::string> used_;
+};
+
+Body parse_body(Section s) {
+  Body b;
+  b.mass = s.positive("mass_kg", "kg");
+  b.length = s.positive("length_m", "m");
+  b.width = s.positive("width_m", "m");
+  b.height = s.positive("height_m", "m");
+  b.drag_coefficient = s.number_or("drag_coefficient", 0.0, "a non-negative number");
+  if (b.drag_coefficient < 0) s.fail("drag_coefficient", "must not be negative", "a non-negative number");
+  b.inertia = b.ellipsoid_inertia();
+  if (s.has("inertia_kg_m2")) {
+    Section in = s.sub("inertia_kg_m2", true);
+    const double xx = in.positive("xx", "kg m^2"), yy = in.positive("yy", "kg m^2"),
+                 zz = in.positive("zz", "kg m^2"), xz = in.number_or("xz", 0.0, "a number in kg m^2");
+    in.reject_unknown();
+    b.inertia << xx, 0, -xz, 0, yy, 0, -xz, 0, zz;  // product of inertia Ixz = int x z dm
+    if (Eigen::SelfAdjointEigenSolver<Mat3>(b.inertia).eigenvalues().minCoeff() <= 0)
+      s.fail("inertia_kg_m2", "is not positive definite", "a physical inertia tensor");
+  }
+  s.reject_unknown();
+  return b;
+}
+
+Wing parse_wing(Section s) {
+  Wing w;
+  w.length = s.positive("length_m", "m");
+  w.mean_chord = s.positive("mean_chord_m", "m");
+  const std::string pf = s.string("planform", false, "elliptic", {"elliptic", "rectangular", "tabulated"});
+  w.planform = pf == "elliptic" ? Planform::elliptic : pf == "rectangular" ? Planform::rectangular : Planform::tabulated;
+  if (w.planform == Planform::tabulated) {
+    w.table_r = s.numbers("r_over_R", "an increasing array of r/R in [0, 1]", true);
+    w.table_c = s.numbers("chord_over_mean", "an array of c/c_bar >= 0, as long as r_over_R", true);
+    if (w.table_r.size() < 2 || w.table_r.size() != w.table_c.size())
+      s.fail("chord_over_mean", "length differs from r_over_R or fewer than 2 points", "matching arrays");
+    for (std::size_t i = 0; i < w.table_r.size(); ++i) {
+      if (w.table_r[i] < 0 || w.table_r[i] > 1 || (i && w.table_r[i] <= w.table_r[i - 1]))
+        s.fail("r_over_R", "not strictly increasing within [0, 1]", "an increasing array of r/R in [0, 1]");
+      if (w.table_c[i] < 0) s.fail("chord_over_mean", "negative chord", "c/c_bar >= 0");
+    }
+    // Normalise the table so that its mean chord is exactly mean_chord_m.
+    double area = 0;
+    for (std::size_t i = 1; i < w.table_r.size(); ++i)
+      area += 0.5 * (w.table_c[i] + w.table_c[i - 1]) * (w.table_r[i] - w.table_r[i - 1]);
+    if (!(area > 0)) s.fail("chord_over_mean", "encloses no area", "a planform with positive area");
+    for (double& c : w.table_c) c /= area;
+  }
+  w.pitch_axis = s.number_or("pitch_axis_chord_fraction", 0.25, "a fraction of chord in [0, 1]");
+  if (w.pitch_axis < 0 || w.pitch_axis > 1)
+    s.fail("pitch_axis_chord_fraction", "outside [0, 1]", "a fraction of chord in [0, 1]");
+  w.mass = s.positive("mass_kg", "kg");
+  const auto h = s.numbers("hinge_m", "[x, y, z] of the right-wing hinge in body axes (m)", true);
+  if (h.size() != 3) s.fail("hinge_m", "does not have 3 components", "[x, y, z] in m");
+  w.hinge = Vec3(h[0], h[1], h[2]);
+  Vec3 centre;
+  Mat3 ih;
+  w.plate_mass_properties(centre, ih);
+  if (s.has("mass_centre_m")) {
+    const auto c = s.numbers("mass_centre_m", "[x_chord, r_span] in the wing frame (m)", true);
+    if (c.size() != 2) s.fail("mass_centre_m", "does not have 2 components", "[x_chord, r_span] in m");
+    centre = Vec3(c[0], c[1], 0);
+  }
+  if (s.has("inertia_hinge_kg_m2")) {
+    Section in = s.sub("inertia_hinge_kg_m2", true);
+    const double xx = in.positive("xx", "kg m^2"), yy = in.positive("yy", "kg m^2"),
+                 zz = in.positive("zz", "kg m^2"), xy = in.number_or("xy", 0.0, "a number in kg m^2");
+    in.reject_unknown();
+    ih << xx, -xy, 0, -xy, yy, 0, 0, 0, zz;
+  }
+  w.mass_centre = centre;
+  // Parallel-axis theorem: inertia about the wing CoM.
+  w.inertia_cg = ih - w.mass * (centre.squaredNorm() * Mat3::Identity() - centre * centre.transpose());
+  if (Eigen::SelfAdjointEigenSolver<Mat3>(w.inertia_cg).eigenvalues().minCoeff() < -1e-12 * ih.norm())
+    s.fail("inertia_hinge_kg_m2", "inconsistent with the wing mass and mass centre (negative inertia about the CoM)",
+           "an inertia about the hinge at least m |r_cg|^2");
+  s.reject_unknown();
+  return w;
+}
+
+AngleSeries parse_angle(Section s, const std::string& name, double default_mean_deg) {
+  if (!s.present()) return FourierSeries{default_mean_deg * deg, {}, {}};
+  const std::string type = s.string("type", false, "fourier", {"fourier", "hermite"});
+  AngleSeries out;
+  if (type == "fourier") {
+    FourierSeries f;
+    f.mean = s.number_or("mean_deg", default_mean_deg, "a number in degrees") * deg;
+    f.a = s.numbers("cos_deg", "an array of cosine coefficients in degrees", false);
+    f.b = s.numbers("sin_deg", "an array of sine coefficients in degrees", false);
+    if (f.a.empty() && !f.b.empty()) f.a.assign(f.b.size(), 0.0);
+    if (f.b.empty() && !f.a.empty()) f.b.assign(f.a.size(), 0.0);
+    if (f.a.size() != f.b.size()) s.fail("sin_deg", "length differs from cos_deg", "as many sine as cosine coefficients");
+    for (double& x : f.a) x *= deg;
+    for (double& x : f.b) x *= deg;
+    out = f;
+  } else {
+    HermiteSeries h;
+    h.values = s.numbers("values_deg", "an array of node values in degrees", true);
+    h.slopes = s.numbers("slopes_deg_per_cycle", "an array of node slopes in degrees per cycle", true);
+    if (h.values.size() < 2 || h.values.size() != h.slopes.size())
+      s.fail("slopes_deg_per_cycle", "length differs from values_deg or fewer than 2 nodes", "matching arrays");
+    for (double& x : h.values) x *= deg;
+    for (double& x : h.slopes) x *= deg;
+    out = h;
+  }
+  s.reject_unknown();
+  (void)name;
+  return out;
+}
+
+WingAngles parse_wing_angles(Section& s, const std::string& dir, const WingAngles* fallback) {
+  if (s.has("file")) {
+    const std::string f = s.string("file", true);
+    const std::filesystem::path p = std::filesystem::path(dir) / f;
+    if (!std::filesystem::exists(p)) s.fail("file", "no such file: " + p.string(), "a FLUSI kinematics .ini file");
+    for (const char* k : {"stroke", "deviation", "pitch"})
+      if (s.has(k)) s.fail(k, "given together with 'file'", "either a kinematics file or angle series");
+    return read_flusi_kinematics(p.string());
+  }
+  WingAngles w;
+  if (fallback && !s.has("stroke") && !s.has("deviation") && !s.has("pitch")) return *fallback;
+  if (!fallback && !s.has("stroke")) s.fail("stroke", "missing", "a table of stroke-angle coefficients");
+  w.stroke = parse_angle(s.sub("stroke", false), "stroke", 0.0);
+  w.deviation = parse_angle(s.sub("deviation", false), "deviation", 0.0);
+  w.pitch = parse_angle(s.sub("pitch", false), "pitch", 90.0);
+  if (!s.has("pitch") && !fallback) s.fail("pitch", "missing", "a table of pitch-angle coefficients");
+  return w;
+}
+
+Kinematics parse_kinematics(Section s, const std::string& dir) {
+  Kinematics k;
+  k.frequency_hz = s.positive("frequency_hz", "Hz");
+  k.stroke_plane = s.number_or("stroke_plane_deg", 0.0, "a number in degrees") * deg;
+  k.body_angle = s.number("body_angle_deg", "a number in degrees") * deg;
+  if (std::abs(k.stroke_plane) > 90 * deg) s.fail("stroke_plane_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
+  if (std::abs(k.body_angle) > 90 * deg) s.fail("body_angle_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
+  k.right = parse_wing_angles(s, dir, nullptr);
+  if (s.has("left")) {
+    Section l = s.sub("left", true);
+    k.left = parse_wing_angles(l, dir, &k.right);
+    l.reject_unknown();
+  } else {
+    k.left = k.right;
+  }
+  s.reject_unknown();
+  return k;
+}
+
+}  // namespace
+
+std::string TrimParameterSpec::label() const {
+  return side == ParameterSide::both ? name : name + (side == ParameterSide::left ? "[left]" : "[right]");
+}
+
+const std::vector<std::string>& trim_parameter_names() {
+  static const std::vector<std::string> names = {
+      "frequency_hz",       "stroke_amplitude_deg", "stroke_mean_deg",  "pitch_mean_deg",
+      "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg"};
+  return names;
+}
+
+Case load_case(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path, "", "no such file", "a TOML case file");
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(path, "", fmt::format("TOML syntax error at line {}, column {}: {}", e.source().begin.line,
+                                           e.source().begin.column, e.description()),
+                     "valid TOML");
+  }
+  Case c;
+  c.path = path;
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  Section top(&root, path, "");
+
+  Section insect = top.sub("insect", true);
+  c.insect.name = insect.string("name", true);
+  c.description = insect.string("description", false);
+  const toml::node* src = insect.node("sources");
+  if (!src || !src->is_array() || src->as_array()->empty())
+    insect.fail("sources", src ? "is not a non-empty array" : "missing", "a non-empty array of citations (strings)");
+  for (const auto& e : *src->as_array()) {
+    if (!e.is_string()) insect.fail("sources", "holds a non-string entry", "an array of strings");
+    c.sources.push_back(e.as_string()->get());
+  }
+  insect.reject_unknown();
+
+  c.insect.body = parse_body(top.sub("body", true));
+  c.insect.wing = parse_wing(top.sub("wing", true));
+  c.kinematics = parse_kinematics(top.sub("kinematics", true), dir);
+
+  Section fluid = top.sub("fluid", false);
+  c.fluid.density = fluid.positive_or("density_kg_m3", 1.225, "kg/m^3");
+  c.fluid.kinematic_viscosity = fluid.positive_or("kinematic_viscosity_m2_s", 1.5e-5, "m^2/s");
+  fluid.reject_unknown();
+
+  Section aero = top.sub("aero", false);
+  c.aero.model = aero.string("model", false, "quasi-steady", {"quasi-steady", "cfd"});
+  Section qs = aero.sub("quasi_steady", false);
+  auto& q = c.aero.quasi_steady;
+  q.coefficients = qs.string("coefficients", false, "robofly", {"robofly", "berman-wang"});
+  q.blade_elements = qs.integer_or("blade_elements", 40, 2, 10000);
+  q.rotational = qs.boolean_or("rotational", true);
+  q.added_mass = qs.boolean_or("added_mass", true);
+  q.samples_per_cycle = qs.integer_or("samples_per_cycle", 128, 8, 1000000);
+  qs.reject_unknown();
+  aero.reject_unknown({"cfd"});  // [aero.cfd] belongs to the CFD solver's own parser
+
+  Section trim = top.sub("trim", false);
+  c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});
+  c.trim.objective = trim.string("objective", false, "least-change", {"least-change", "min-power"});
+  c.trim.tolerance = trim.positive_or("tolerance", 1e-10, "(relative residual)");
+  c.trim.max_iterations = trim.integer_or("max_iterations", 200, 1, 100000);
+  if (const toml::node* ps = trim.node("parameter")) {
+    if (!ps->is_array_of_tables()) trim.fail("parameter", "is not an array of tables", "[[trim.parameter]] entries");
+    int i = 0;
+    for (const auto& e : *ps->as_array()) {
+      Section p(e.as_table(), path, fmt::format("trim.parameter[{}]", i++));
+      TrimParameterSpec spec;
+      spec.name = p.string("name", true, {}, trim_parameter_names());
+      spec.lower = p.number("lower", "a number (lower bound)");
+      spec.upper = p.number("upper", "a number (upper bound)");
+      if (!(spec.lower < spec.upper)) p.fail("upper", "not above 'lower'", "upper > lower");
+      const std::string side = p.string("side", false, "both", {"both", "left", "right"});
+      spec.side = side == "both" ? ParameterSide::both : side == "left" ? ParameterSide::left : ParameterSide::right;
+      p.reject_unknown();
+      for (const auto& o : c.trim.parameters)
+        if (o.name == spec.name && (o.side == spec.side || o.side == ParameterSide::both || spec.side == ParameterSide::both))
+          p.fail("name", "parameter \"" + spec.name + "\" given twice for the same wing", "each parameter once");
+      c.trim.parameters.push_back(spec);
+    }
+  }
+  trim.reject_unknown();
+
+  Section der = top.sub("derivatives", false);
+  c.derivatives.relative_step = der.positive_or("relative_step", 0.01, "(step / reference speed)");
+  if (c.derivatives.relative_step > 0.5) der.fail("relative_step", "too large", "a relative step below 0.5");
+  der.reject_unknown();
+
+  Section out = top.sub("output", false);
+  c.output_directory = out.string("directory", false, "out");
+  out.reject_unknown();
+  top.reject_unknown();
+  return c;
+}
+
+}  // namespace flapstab

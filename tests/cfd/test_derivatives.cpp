@@ -1,0 +1,75 @@
+// Tests for cfd/derivatives: step-size insensitivity, the hawkmoth-like longitudinal sign pattern,
+// symmetry of the decoupled table, and the non-dimensional scaling.
+#include <gtest/gtest.h>
+#include "cfd/aero_factory.hpp"
+#include "cfd/derivatives.hpp"
+#include "common/case_text.hpp"
+#include "trim/trim.hpp"
+
+namespace flapstab {
+namespace {
+
+struct Trimmed {
+  Case c;
+  std::unique_ptr<AeroModel> model;
+  TrimResult t;
+};
+
+const Trimmed& trimmed_case() {
+  static const Trimmed tr = [] {
+    Trimmed x;
+    x.c = load_case(testing::write_temp("der.toml", testing::valid_case_text()));
+    x.model = make_aero_model(x.c);
+    x.t = trim_hover(x.c, *x.model);
+    return x;
+  }();
+  return tr;
+}
+
+// Step-size study: relative steps from 1e-3 to 3e-2 of U give the same derivatives. The quasi-steady
+// loads are smooth in the body velocities (continuous coefficients and a Kutta-Joukowski rotational
+// force), so central differences have O(h^2) truncation error: within 1e-3 of the row's largest
+// derivative for h <= 0.01 (the default), and within 5e-3 at h = 0.03 (nine times the h = 0.01 error).
+TEST(Derivatives, InsensitiveToStepSize) {
+  const Trimmed& tr = trimmed_case();
+  ASSERT_TRUE(tr.t.converged);
+  const auto ref = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.003);
+  for (auto [h, tol] : {std::pair{0.001, 1e-3}, std::pair{0.01, 1e-3}, std::pair{0.03, 5e-3}}) {
+    const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, h);
+    for (int i = 0; i < 6; ++i) {
+      const double scale = ref.table.nd.row(i).cwiseAbs().maxCoeff();
+      for (int j = 0; j < 6; ++j)
+        EXPECT_NEAR(d.table.nd(i, j), ref.table.nd(i, j), tol * scale) << "h=" << h << " (" << i << "," << j << ")";
+    }
+  }
+}
+
+// REFERENCE.md (Sun's group, hovering insects incl. hawkmoth): X_u < 0, M_u > 0, Z_w < 0, M_q < 0.
+TEST(Derivatives, HawkmothLikeLongitudinalPattern) {
+  const Trimmed& tr = trimmed_case();
+  const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
+  const DerivativeTable& t = d.table;
+  EXPECT_LT(t.at("Xu"), 0.0);
+  EXPECT_GT(t.at("Mu"), 0.0);
+  EXPECT_LT(t.at("Zw"), 0.0);
+  EXPECT_LT(t.at("Mq"), 0.0);
+  // Symmetric flyer: longitudinal forces do not depend on lateral motion and vice versa.
+  for (const char* n : {"Xv", "Xp", "Xr", "Zv", "Zp", "Zr", "Mv", "Mp", "Mr", "Yu", "Yw", "Yq", "Lu", "Lw", "Lq", "Nu",
+                        "Nw", "Nq"})
+    EXPECT_NEAR(t.at(n), 0.0, 1e-10) << n;
+}
+
+TEST(Derivatives, NondimensionalScaling) {
+  const Trimmed& tr = trimmed_case();
+  const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
+  const ReferenceQuantities& r = d.table.reference;
+  EXPECT_NEAR(d.table.at("Xu"), d.si(0, 0) * r.U / (0.5 * r.rho * r.U * r.U * r.S_t), 1e-14);
+  EXPECT_NEAR(d.table.at("Mq"), d.si(4, 4) * (r.U / r.c) / (0.5 * r.rho * r.U * r.U * r.S_t * r.c), 1e-14);
+  // U = 2 Phi n r2 with Phi the trimmed amplitude.
+  EXPECT_NEAR(r.U, 2 * tr.t.kinematics.stroke_amplitude() * r.frequency * tr.c.insect.wing.radius_of_moment(2), 1e-12);
+  EXPECT_NEAR(d.table.mass.m, tr.c.insect.total_mass(), 1e-15);
+  EXPECT_GT(d.table.mass.Iyy, 0.0);
+}
+
+}  // namespace
+}  // namespace flapstab

@@ -1,0 +1,88 @@
+// A complete, valid case file as text (hawkmoth-like), for tests that edit one field at a time.
+#pragma once
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace flapstab::testing {
+
+inline std::string valid_case_text() {
+  return R"(# test case (numbers: Willmott & Ellington 1997 via Berman & Wang 2007; hinge assumed)
+[insect]
+name = "test-moth"
+sources = ["Berman & Wang 2007, J Fluid Mech 582:153, Table 2"]
+
+[body]
+mass_kg = 1.554e-3
+length_m = 0.045
+width_m = 0.011
+height_m = 0.011
+
+[wing]
+length_m = 0.0519
+mean_chord_m = 0.01826
+planform = "elliptic"
+pitch_axis_chord_fraction = 0.25
+mass_kg = 47e-6
+hinge_m = [0.006, 0.004, -0.003]
+
+[kinematics]
+frequency_hz = 26.0
+stroke_plane_deg = 0.0
+body_angle_deg = 40.0
+[kinematics.stroke]
+mean_deg = 0.0
+cos_deg = [-60.0]
+sin_deg = [0.0]
+[kinematics.pitch]
+mean_deg = 90.0
+cos_deg = [0.0]
+sin_deg = [-55.0]
+
+[fluid]
+density_kg_m3 = 1.225
+
+[aero]
+model = "quasi-steady"
+[aero.quasi_steady]
+coefficients = "robofly"
+blade_elements = 40
+
+[trim]
+solver = "ipopt"
+objective = "least-change"
+tolerance = 1e-10
+[[trim.parameter]]
+name = "stroke_amplitude_deg"
+lower = 60.0
+upper = 170.0
+[[trim.parameter]]
+name = "stroke_mean_deg"
+lower = -40.0
+upper = 40.0
+[[trim.parameter]]
+name = "pitch_mean_deg"
+lower = 60.0
+upper = 120.0
+)";
+}
+
+// Writes text to a fresh file in a per-test temporary directory; returns its path.
+inline std::string write_temp(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / ("flapstab_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+// Replaces the first occurrence of `from` in `s` with `to` (the test fails loudly if absent).
+inline std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const auto i = s.find(from);
+  if (i == std::string::npos) throw std::runtime_error("test edit: '" + from + "' not in case text");
+  return s.replace(i, from.size(), to);
+}
+
+}  // namespace flapstab::testing

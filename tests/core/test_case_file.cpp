@@ -1,0 +1,95 @@
+// Tests for core/case_file: a valid case loads; each kind of bad input names the file and the key.
+#include <gtest/gtest.h>
+#include "common/case_text.hpp"
+#include "core/case_file.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab {
+namespace {
+
+using testing::replace;
+using testing::valid_case_text;
+using testing::write_temp;
+
+TEST(CaseFile, ValidCaseLoads) {
+  const Case c = load_case(write_temp("ok.toml", valid_case_text()));
+  EXPECT_EQ(c.insect.name, "test-moth");
+  EXPECT_NEAR(c.insect.total_mass(), 1.648e-3, 1e-12);
+  EXPECT_NEAR(c.kinematics.stroke_amplitude() / deg, 120.0, 1e-9);
+  EXPECT_TRUE(c.kinematics.symmetric());
+  ASSERT_EQ(c.trim.parameters.size(), 3u);
+  EXPECT_EQ(c.trim.parameters[2].name, "pitch_mean_deg");
+  // Thin-plate default mass properties: CoM on the span, inside the wing.
+  EXPECT_GT(c.insect.wing.mass_centre.y(), 0.2 * c.insect.wing.length);
+}
+
+// Each bad edit must raise InputError naming the file and the key.
+struct BadCase {
+  const char* label;
+  const char* from;
+  const char* to;
+  const char* key;
+};
+
+class CaseFileBad : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(CaseFileBad, NamesFileAndKey) {
+  const BadCase b = GetParam();
+  const std::string path = write_temp(std::string(b.label) + ".toml", replace(valid_case_text(), b.from, b.to));
+  try {
+    load_case(path);
+    FAIL() << "no error for " << b.label;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.key(), b.key) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected"), std::string::npos) << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Inputs, CaseFileBad,
+    ::testing::Values(BadCase{"missing_key", "mass_kg = 1.554e-3\n", "", "body.mass_kg"},
+                      BadCase{"wrong_type", "frequency_hz = 26.0", "frequency_hz = \"fast\"", "kinematics.frequency_hz"},
+                      BadCase{"negative_mass", "mass_kg = 47e-6", "mass_kg = -47e-6", "wing.mass_kg"},
+                      BadCase{"nan", "length_m = 0.0519", "length_m = nan", "wing.length_m"},
+                      BadCase{"inf", "density_kg_m3 = 1.225", "density_kg_m3 = inf", "fluid.density_kg_m3"},
+                      BadCase{"unknown_trim_parameter", "name = \"stroke_mean_deg\"", "name = \"stroke_mean\"",
+                              "trim.parameter[1].name"},
+                      BadCase{"unknown_key", "planform = \"elliptic\"", "planfrom = \"elliptic\"", "wing.planfrom"},
+                      BadCase{"bad_enum", "coefficients = \"robofly\"", "coefficients = \"robofli\"",
+                              "aero.quasi_steady.coefficients"},
+                      BadCase{"bounds", "lower = -40.0\nupper = 40.0", "lower = 40.0\nupper = -40.0",
+                              "trim.parameter[1].upper"},
+                      BadCase{"hinge_size", "hinge_m = [0.006, 0.004, -0.003]", "hinge_m = [0.006, 0.004]",
+                              "wing.hinge_m"},
+                      BadCase{"fourier_lengths", "sin_deg = [-55.0]", "sin_deg = [-55.0, 1.0]",
+                              "kinematics.pitch.sin_deg"},
+                      BadCase{"no_sources", "sources = [\"Berman & Wang 2007, J Fluid Mech 582:153, Table 2\"]",
+                              "sources = []", "insect.sources"}),
+    [](const ::testing::TestParamInfo<BadCase>& i) { return std::string(i.param.label); });
+
+TEST(CaseFile, MissingSectionIsAllowedOnlyForOptionalOnes) {
+  // [fluid] is optional (defaults to air), so its removal loads.
+  EXPECT_NO_THROW(load_case(write_temp("nofluid.toml", replace(valid_case_text(), "[fluid]\ndensity_kg_m3 = 1.225\n", ""))));
+  try {
+    load_case(write_temp("nobody.toml", replace(valid_case_text(), "[body]\n", "[bodyy]\n")));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.key(), "body");
+  }
+}
+
+TEST(CaseFile, SyntaxErrorGivesLine) {
+  const std::string path = write_temp("syntax.toml", replace(valid_case_text(), "mass_kg = 47e-6", "mass_kg = = 4"));
+  try {
+    load_case(path);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("line"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CaseFile, MissingFile) { EXPECT_THROW(load_case("/nonexistent/case.toml"), InputError); }
+
+}  // namespace
+}  // namespace flapstab
