@@ -1,10 +1,13 @@
-// flapstab subcommands: trim-hover and derivatives.
+// flapstab subcommands: trim-hover, derivatives, stability and analyze.
 #include "apps/commands.hpp"
 
 #include <chrono>
 #include <fmt/format.h>
 
+#include "apps/report.hpp"
 #include "apps/results_json.hpp"
+#include "apps/stability_json.hpp"
+#include "stability/analysis.hpp"
 #include "cfd/aero_factory.hpp"
 #include "cfd/derivatives.hpp"
 #include "core/atomic_write.hpp"
@@ -24,7 +27,7 @@ TrimResult trimmed(const Case& c, const AeroModel& model) {
   if (!t.converged)
     throw SolveError(fmt::format(
         "{}: trim did not converge ({}); residuals: force {:.3e} of weight, moment {:.3e} of weight x wing "
-        "length (tolerance {:.1e}). Widen the [[trim.parameter]] bounds or choose other parameters.",
+        "length (tolerance {:.1e}). Widen the [[trim.parameter]] bounds (key 'trim.parameter') or free other parameters.",
         c.path, t.message, t.relative_force_residual, t.relative_moment_residual, c.trim.tolerance));
   return t;
 }
@@ -87,6 +90,120 @@ int run_derivatives(const CommandOptions& o) {
       for (int k = 0; k < 6; ++k) fmt::print(" {:>11.4e}", d.table.nd(i, k));
       fmt::print("\n");
     }
+  }
+  return 0;
+}
+
+namespace {
+
+StabilityReport stability_of(const DerivativeTable& table, const std::string& model) {
+  StabilityRequest req;
+  req.six_dof = model == "6dof";
+  StabilityReport rep = analyse_stability(table, req);
+  if (model == "longitudinal") rep.lateral.reset();
+  if (model == "lateral") rep.longitudinal.reset();
+  return rep;
+}
+
+// A single analysis (--model longitudinal|lateral) is written as that analysis' object; 6dof as the
+// report keyed longitudinal, lateral, 6dof.
+nlohmann::json stability_json(const StabilityReport& rep, const std::string& model) {
+  nlohmann::json j = to_json(rep);
+  if (model == "longitudinal" && rep.longitudinal) j["analysis"] = to_json(*rep.longitudinal);
+  if (model == "lateral" && rep.lateral) j["analysis"] = to_json(*rep.lateral);
+  if (model != "6dof") {
+    nlohmann::json single = j["analysis"];
+    if (single.is_null())
+      throw SolveError("the derivative table has no " + model + " derivatives: nothing to analyse");
+    for (const char* k : {"conventions", "units", "source", "reference", "nondimensional_parameters", "notices"})
+      if (j.contains(k)) single[k] = j[k];
+    return single;
+  }
+  return j;
+}
+
+}  // namespace
+
+int run_stability(const CommandOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.model != "longitudinal" && o.model != "lateral" && o.model != "6dof")
+    throw InputError("", "--model", "unknown model \"" + o.model + "\"", "longitudinal, lateral or 6dof");
+  nlohmann::json j;
+  DerivativeTable table;
+  if (!o.derivatives_path.empty()) {
+    table = read_derivative_table(o.derivatives_path);
+    j = {{"program", "flapstab"}, {"version", FLAPSTAB_VERSION}, {"command", "stability"},
+         {"derivative_table", o.derivatives_path}, {"derivative_table_fnv1a64", file_hash(o.derivatives_path)}};
+  } else {
+    const Case c = load_case(o.case_path);
+    const auto model = make_aero_model(c);
+    const TrimResult t = trimmed(c, *model);
+    const DerivativeResult d =
+        cycle_averaged_derivatives(*model, c.insect, t.kinematics, c.fluid, c.derivatives.relative_step);
+    table = d.table;
+    j = metadata_json(c, "stability");
+    j["trim"] = trim_json(t);
+    j["derivatives"] = derivatives_json(d);
+  }
+  const StabilityReport rep = stability_of(table, o.model);
+  j["stability"] = stability_json(rep, o.model);
+  j["wall_time_s"] = seconds_since(t0);
+  const std::string text = j.dump(2) + "\n";
+  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
+  if (!o.output_dir.empty()) {
+    write_file_atomic(o.output_dir + "/stability.json", text);
+    write_file_atomic(o.output_dir + "/stability.md", stability_markdown(rep));
+  }
+  if (!o.quiet) fmt::print("{}", stability_markdown(rep));
+  return 0;
+}
+
+int run_analyze(const CommandOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Case c = load_case(o.case_path);
+  const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
+  const auto model = make_aero_model(c);
+  const TrimResult t = trimmed(c, *model);
+  const DerivativeResult d =
+      cycle_averaged_derivatives(*model, c.insect, t.kinematics, c.fluid, c.derivatives.relative_step);
+  const StabilityReport rep = stability_of(d.table, "6dof");
+  AeroRunOptions fine;
+  fine.samples_per_cycle = 256;
+  const WrenchHistory history = model->run(c.insect, t.kinematics, BodyMotion{}, fine);
+  const double secs = seconds_since(t0);
+  const ReportFiles files = build_report({&c, &t, &d, &rep, &history, secs});
+
+  nlohmann::json j = metadata_json(c, "analyze");
+  j["trim"] = trim_json(t);
+  j["derivatives"] = derivatives_json(d);
+  j["stability"] = stability_json(rep, "6dof");
+  j["wall_time_s"] = secs;
+  if (!files.figure_notice.empty()) j["figure_notice"] = files.figure_notice;
+  std::string csv =
+      "# loads over the trimmed wingbeat; hover stability axes (x forward, y right, z down), about the wingbeat-mean "
+      "CoM; SI units (s, N, N m, W)\n"
+      "t_s,X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,Z_right_N,Z_left_N,power_W\n";
+  for (const auto& s : history.samples) {
+    const Wrench w = s.total();
+    csv += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", s.time, w.force.x(),
+                       w.force.y(), w.force.z(), w.moment.x(), w.moment.y(), w.moment.z(), s.right.force.z(),
+                       s.left.force.z(), s.power);
+  }
+  DerivativeTable table = d.table;
+  table.source = c.path + " (" + d.table.source + ")";
+  // Everything is computed; only now are files written (each atomically).
+  write_file_atomic(dir + "/results.json", j.dump(2) + "\n");
+  write_file_atomic(dir + "/derivatives.toml", derivative_table_toml(table));
+  write_file_atomic(dir + "/loads.csv", csv);
+  for (const auto& [name, svg] : files.figures) write_file_atomic(dir + "/" + name, svg);
+  write_file_atomic(dir + "/report.md", files.markdown);
+  write_file_atomic(dir + "/report.html", files.html);
+  if (!o.quiet) {
+    print_trim(c, t, secs);
+    fmt::print("{}", stability_markdown(rep));
+    if (!files.figure_notice.empty()) fmt::print("note: figures omitted: {}\n", files.figure_notice);
+    fmt::print("wrote {}/report.md, report.html, results.json, derivatives.toml, loads.csv ({} figures) in {:.2f} s\n",
+               dir, files.figures.size(), seconds_since(t0));
   }
   return 0;
 }

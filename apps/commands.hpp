@@ -6,6 +6,8 @@ namespace flapstab {
 
 struct CommandOptions {
   std::string case_path;     // CASE.toml
+  std::string derivatives_path;  // stability: --derivatives TABLE.toml instead of a case
+  std::string model = "6dof";    // stability: longitudinal | lateral | 6dof
   std::string json_path;     // --json FILE ("" = none)
   std::string output_dir;    // -o DIR ("" = none)
   bool quiet = false;
@@ -15,5 +17,8 @@ struct CommandOptions {
 // exit statuses by main().
 int run_trim_hover(const CommandOptions& o);
 int run_derivatives(const CommandOptions& o);
+int run_stability(const CommandOptions& o);
+// The main job: trim -> derivatives -> stability -> report.md, report.html, results.json, derivatives.toml.
+int run_analyze(const CommandOptions& o);
 
 }  // namespace flapstab

@@ -28,10 +28,34 @@ int main(int argc, char** argv) {
   CLI::App* der = app.add_subcommand("derivatives", "trim, then the cycle-averaged stability derivatives "
                                                     "(central differences in u, v, w, p, q, r)");
   add_common(der, o);
+  CLI::App* stab = app.add_subcommand("stability", "eigen-analysis of the hover: longitudinal [u w q theta], lateral "
+                                                   "[v p r phi] and coupled 6DoF modes, from a case (trimmed first) "
+                                                   "or a derivative table");
+  stab->add_option("case", o.case_path, "case file (TOML); or give --derivatives")->check(CLI::ExistingFile);
+  stab->add_option("--derivatives", o.derivatives_path, "derivative table (TOML, docs/derivative-table.md)")
+      ->check(CLI::ExistingFile);
+  stab->add_option("--model", o.model, "longitudinal | lateral | 6dof (all three; default)")
+      ->check(CLI::IsMember({"longitudinal", "lateral", "6dof"}));
+  stab->add_option("--json", o.json_path, "write the machine-readable results to this JSON file");
+  stab->add_option("-o,--output", o.output_dir, "write stability.json and stability.md into this directory");
+  stab->add_flag("-q,--quiet", o.quiet, "print nothing on success");
+  CLI::App* an = app.add_subcommand("analyze", "the main job: trim, derivatives, stability, and a report "
+                                               "(report.md, report.html, results.json, derivatives.toml, figures)");
+  an->add_option("case", o.case_path, "case file (TOML)")->required()->check(CLI::ExistingFile);
+  an->add_option("-o,--output", o.output_dir, "output directory (default: the case's [output] directory)");
+  an->add_flag("-q,--quiet", o.quiet, "print nothing on success");
   CLI11_PARSE(app, argc, argv);
   try {
     if (trim->parsed()) return flapstab::run_trim_hover(o);
     if (der->parsed()) return flapstab::run_derivatives(o);
+    if (an->parsed()) return flapstab::run_analyze(o);
+    if (stab->parsed()) {
+      if (o.case_path.empty() == o.derivatives_path.empty()) {
+        fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");
+        return 2;
+      }
+      return flapstab::run_stability(o);
+    }
   } catch (const flapstab::InputError& e) {
     fmt::print(stderr, "flapstab: error: {}\n", e.what());
     return 2;

@@ -49,7 +49,6 @@ class Section {
       : t_(t), file_(std::move(file)), path_(std::move(path)) {}
 
   bool present() const { return t_ != nullptr; }
-  bool has(const std::string& k) const { return t_ && t_->contains(k); }
   std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
   [[noreturn]] void fail(const std::string& k, const std::string& problem, const std::string& expected) const {
     throw InputError(file_, key(k), problem, expected);

@@ -1,0 +1,261 @@
+// The analysis report: Markdown with figures, and the same as one self-contained HTML page.
+#include "apps/report.hpp"
+
+#include <fmt/format.h>
+#include <sstream>
+
+#include "apps/plots.hpp"
+#include "apps/stability_json.hpp"
+
+namespace flapstab {
+
+namespace {
+
+std::string html_escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else o += c;
+  }
+  return o;
+}
+
+// Inline markup: `code`, **bold**.
+std::string inline_html(const std::string& s) {
+  std::string e = html_escape(s), o;
+  bool code = false, bold = false;
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    if (e[i] == '`') {
+      o += code ? "</code>" : "<code>";
+      code = !code;
+    } else if (!code && e.compare(i, 2, "**") == 0) {
+      o += bold ? "</strong>" : "<strong>";
+      bold = !bold;
+      ++i;
+    } else {
+      o += e[i];
+    }
+  }
+  return o;
+}
+
+std::vector<std::string> table_cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cur;
+  for (std::size_t i = 1; i < line.size(); ++i) {
+    if (line[i] == '|') {
+      cells.push_back(cur);
+      cur.clear();
+    } else {
+      cur += line[i];
+    }
+  }
+  for (auto& c : cells) {
+    while (!c.empty() && c.front() == ' ') c.erase(c.begin());
+    while (!c.empty() && c.back() == ' ') c.pop_back();
+  }
+  return cells;
+}
+
+std::string figure_md(const std::string& name, const std::string& caption, const ReportFiles& f) {
+  if (!f.figures.count(name)) return "";
+  return fmt::format("![{}]({})\n\n*{}*\n\n", caption, name, caption);
+}
+
+void add_figures(const ReportInputs& in, ReportFiles& out) {
+  std::string why;
+  auto keep = [&](const std::string& name, std::optional<std::string> svg) {
+    if (svg) out.figures[name] = *svg;
+    else if (out.figure_notice.empty()) out.figure_notice = why;
+  };
+  // Loads over the trimmed wingbeat, normalised by the weight (and weight x wing length).
+  const Case& c = *in.case_file;
+  const double W = c.insect.weight(), R = c.insect.wing.length, T = in.trim->kinematics.period();
+  LinePlot loads{"Loads over the trimmed wingbeat (stability axes, about the mean CoM)", "t / T",
+                 "force / weight, moment / (weight R)", {}, false, true};
+  Series fx{"X / W", {}, {}}, fz{"-Z / W (vertical force)", {}, {}}, my{"M / (W R)", {}, {}};
+  for (const auto& s : in.history->samples) {
+    const Wrench w = s.total();
+    fx.x.push_back(s.time / T), fx.y.push_back(w.force.x() / W);
+    fz.x.push_back(s.time / T), fz.y.push_back(-w.force.z() / W);
+    my.x.push_back(s.time / T), my.y.push_back(w.moment.y() / (W * R));
+  }
+  loads.series = {fx, fz, my};
+  keep("figures/loads.svg", render_svg(loads, why));
+  // Eigenvalues on the complex plane (non-dimensional), one series per analysis.
+  LinePlot eig{"Eigenvalues (non-dimensional, per unit tU/c)", "Re λ⁺", "Im λ⁺", {}, true, true};
+  for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
+    if (!*a) continue;
+    Series s{(*a)->name, {}, {}};
+    for (const auto& m : (*a)->modes) {
+      s.x.push_back(m.eigenvalue_nd.real());
+      s.y.push_back(m.eigenvalue_nd.imag());
+      if (m.conjugate_pair) {
+        s.x.push_back(m.eigenvalue_nd.real());
+        s.y.push_back(-m.eigenvalue_nd.imag());
+      }
+    }
+    eig.series.push_back(s);
+  }
+  keep("figures/eigenvalues.svg", render_svg(eig, why));
+  // Mode shapes: eigenvector magnitudes (attitude-normalised) and phases per state.
+  for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
+    if (!*a) continue;
+    BarPlot mag{fmt::format("{} mode shapes: |eigenvector| (attitude component = 1)", (*a)->name), "magnitude",
+                (*a)->state_order, {}};
+    BarPlot ph{fmt::format("{} mode shapes: phase relative to the attitude (deg)", (*a)->name), "phase + 180 (deg)",
+               (*a)->state_order, {}};
+    for (const auto& m : (*a)->modes) {
+      BarGroup gm{m.label, {}}, gp{m.label, {}};
+      for (const auto& v : m.eigenvector) {
+        gm.values.push_back(std::abs(v));
+        gp.values.push_back(std::arg(v) / deg + 180.0);
+      }
+      mag.groups.push_back(gm);
+      ph.groups.push_back(gp);
+    }
+    keep(fmt::format("figures/modes_{}_magnitude.svg", (*a)->name), render_svg(mag, why));
+    keep(fmt::format("figures/modes_{}_phase.svg", (*a)->name), render_svg(ph, why));
+  }
+}
+
+}  // namespace
+
+ReportFiles build_report(const ReportInputs& in) {
+  ReportFiles out;
+  add_figures(in, out);
+  const Case& c = *in.case_file;
+  const TrimResult& t = *in.trim;
+  const DerivativeTable& d = in.derivatives->table;
+  std::ostringstream md;
+  md << fmt::format("# Hover stability of {}\n\n", c.insect.name);
+  if (!c.description.empty()) md << c.description << "\n\n";
+  md << fmt::format(
+      "Case file `{}`; aerodynamic model: {}; flapstab {}. Axes: hover stability axes (body-fixed, origin at the "
+      "wingbeat-mean centre of mass, x forward and horizontal at trim, y right, z down). SI units unless stated. "
+      "Run time {:.2f} s.\n\n",
+      c.path, in.derivatives->table.source, FLAPSTAB_VERSION, in.wall_time_s);
+  md << "Sources of the insect's numbers:\n\n";
+  for (const auto& s : c.sources) md << "- " << s << "\n";
+  md << "\n## Summary\n\n";
+  auto count_unstable = [](const std::optional<StabilityAnalysis>& a) {
+    int n = 0;
+    if (a)
+      for (const auto& m : a->modes) n += m.eigenvalue_nd.real() > 0;
+    return n;
+  };
+  if (in.stability->longitudinal)
+    md << fmt::format("- Longitudinal: {} unstable mode(s) of {}.\n", count_unstable(in.stability->longitudinal),
+                      in.stability->longitudinal->modes.size());
+  if (in.stability->lateral)
+    md << fmt::format("- Lateral: {} unstable mode(s) of {}.\n", count_unstable(in.stability->lateral),
+                      in.stability->lateral->modes.size());
+  for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
+    if (!*a) continue;
+    for (const auto& m : (*a)->modes)
+      if (m.eigenvalue_nd.real() > 0 && m.time_to_double_s)
+        md << fmt::format("- {} {}: doubles in {:.3g} s ({:.3g} wingbeats).\n", (*a)->name, m.label,
+                          *m.time_to_double_s, *m.time_to_double_wingbeats);
+  }
+  md << "\n## Hover trim\n\n";
+  md << fmt::format("Solver {} ({}), {} iterations, {} model runs. Residuals: force {:.2e} × weight, moment "
+                    "{:.2e} × weight × wing length. Weight {:.4g} N; mean aerodynamic power {:.4g} W ({:.4g} W/kg).\n\n",
+                    t.solver, t.objective, t.iterations, t.model_runs, t.relative_force_residual,
+                    t.relative_moment_residual, t.weight, t.mean_power, t.mean_power / c.insect.total_mass());
+  md << "| parameter | trimmed | initial | lower | upper | unit |\n|---|---|---|---|---|---|\n";
+  for (const auto& p : t.parameters)
+    md << fmt::format("| {} | {:.6g} | {:.6g} | {:g} | {:g} | {} |\n", p.label, p.value, p.initial, p.lower, p.upper,
+                      p.unit);
+  md << "\n" << figure_md("figures/loads.svg", "Force and pitching moment over the trimmed wingbeat.", out);
+  md << "## Derivatives (non-dimensional)\n\n";
+  const ReferenceQuantities& r = d.reference;
+  md << fmt::format(
+      "Reference: U = 2Φnr₂ = {:.4g} m/s, c = {:.4g} m, S_t = {:.4g} m², ρ = {:.4g} kg/m³, n = {:.4g} Hz. Mass "
+      "{:.4g} kg; I_xx {:.4g}, I_yy {:.4g}, I_zz {:.4g}, I_xz {:.4g} kg m² (about the mean CoM). Central "
+      "differences with steps {:.3g} m/s and {:.3g} rad/s.\n\n",
+      r.U, r.c, r.S_t, r.rho, r.frequency, d.mass.m, d.mass.Ixx, d.mass.Iyy, d.mass.Izz, d.mass.Ixz,
+      in.derivatives->velocity_step, in.derivatives->rate_step);
+  md << "| | u | v | w | p | q | r |\n|---|---|---|---|---|---|---|\n";
+  for (int i = 0; i < 6; ++i) {
+    md << "| " << "XYZLMN"[i];
+    for (int j = 0; j < 6; ++j) md << fmt::format(" | {:.4g}", d.nd(i, j));
+    md << " |\n";
+  }
+  md << "\n## Stability\n\n" << stability_markdown(*in.stability) << "\n";
+  md << figure_md("figures/eigenvalues.svg", "Eigenvalues on the complex plane (non-dimensional).", out);
+  for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
+    if (!*a) continue;
+    md << figure_md(fmt::format("figures/modes_{}_magnitude.svg", (*a)->name),
+                    fmt::format("{} mode shapes: eigenvector magnitudes, attitude component = 1.", (*a)->name), out);
+    md << figure_md(fmt::format("figures/modes_{}_phase.svg", (*a)->name),
+                    fmt::format("{} mode shapes: phases relative to the attitude, plus 180°.", (*a)->name), out);
+  }
+  if (!out.figure_notice.empty()) md << "**Figures omitted:** " << out.figure_notice << "\n\n";
+  md << "## Files\n\n- `results.json`: everything above, machine-readable (units and conventions inside).\n"
+        "- `derivatives.toml`: the derivative table (docs/derivative-table.md), readable by `flapstab stability "
+        "--derivatives`.\n- `loads.csv`: the loads over the trimmed cycle.\n";
+  out.markdown = md.str();
+  out.html = markdown_to_html(out.markdown, out.figures, "flapstab: " + c.insect.name);
+  return out;
+}
+
+std::string markdown_to_html(const std::string& md, const std::map<std::string, std::string>& figures,
+                             const std::string& title) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title)
+    << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
+       "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}td,th{border:1px solid #bbb;padding:3px 7px;"
+       "text-align:right}th{background:#eee}td:first-child{text-align:left}figure{margin:1em 0}"
+       "figcaption{font-style:italic;color:#555}code{background:#f3f3f3;padding:0 3px}svg{max-width:100%;height:auto}"
+       "</style></head><body>\n";
+  std::istringstream in(md);
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(in, line)) lines.push_back(line);
+  bool in_list = false;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string& l = lines[i];
+    if (in_list && l.rfind("- ", 0) != 0) {
+      h << "</ul>\n";
+      in_list = false;
+    }
+    if (l.empty()) continue;
+    if (l[0] == '#') {
+      std::size_t n = l.find_first_not_of('#');
+      h << fmt::format("<h{0}>{1}</h{0}>\n", n, inline_html(l.substr(n + 1)));
+    } else if (l.rfind("- ", 0) == 0) {
+      if (!in_list) h << "<ul>\n";
+      in_list = true;
+      h << "<li>" << inline_html(l.substr(2)) << "</li>\n";
+    } else if (l[0] == '|') {
+      h << "<table>\n<tr>";
+      for (const auto& cell : table_cells(l)) h << "<th>" << inline_html(cell) << "</th>";
+      h << "</tr>\n";
+      i += 1;  // the |---| separator
+      while (i + 1 < lines.size() && !lines[i + 1].empty() && lines[i + 1][0] == '|') {
+        ++i;
+        h << "<tr>";
+        for (const auto& cell : table_cells(lines[i])) h << "<td>" << inline_html(cell) << "</td>";
+        h << "</tr>\n";
+      }
+      h << "</table>\n";
+    } else if (l.rfind("![", 0) == 0) {
+      const std::size_t a = l.find("]("), b = l.rfind(')');
+      const std::string caption = l.substr(2, a - 2), file = l.substr(a + 2, b - a - 2);
+      auto it = figures.find(file);
+      h << "<figure>" << (it != figures.end() ? it->second.substr(std::min(it->second.find("<svg"), it->second.size()))
+                                              : std::string("[missing figure]"))
+        << "<figcaption>" << html_escape(caption) << "</figcaption></figure>\n";
+      if (i + 2 < lines.size() && lines[i + 1].empty() && lines[i + 2].rfind("*", 0) == 0) i += 2;  // caption line
+    } else {
+      h << "<p>" << inline_html(l) << "</p>\n";
+    }
+  }
+  if (in_list) h << "</ul>\n";
+  h << "</body></html>\n";
+  return h.str();
+}
+
+}  // namespace flapstab

@@ -1,0 +1,34 @@
+// The analysis report: report.md (with SVG figures beside it) and a self-contained report.html.
+#pragma once
+#include <map>
+#include <string>
+#include "cfd/derivatives.hpp"
+#include "core/aero_model.hpp"
+#include "stability/analysis.hpp"
+#include "trim/trim.hpp"
+
+namespace flapstab {
+
+struct ReportInputs {
+  const Case* case_file = nullptr;
+  const TrimResult* trim = nullptr;
+  const DerivativeResult* derivatives = nullptr;
+  const StabilityReport* stability = nullptr;
+  const WrenchHistory* history = nullptr;  // loads over the trimmed cycle
+  double wall_time_s = 0;
+};
+
+struct ReportFiles {
+  std::string markdown, html;
+  std::map<std::string, std::string> figures;  // file name (figures/x.svg) -> SVG text
+  std::string figure_notice;                   // why figures are missing, if they are
+};
+
+ReportFiles build_report(const ReportInputs& in);
+
+// Minimal Markdown -> HTML (headings, paragraphs, lists, pipe tables, `code`, **bold**, images
+// replaced by the inline SVG of the same name) for the self-contained report.
+std::string markdown_to_html(const std::string& md, const std::map<std::string, std::string>& figures,
+                             const std::string& title);
+
+}  // namespace flapstab

@@ -1,0 +1,126 @@
+// End-to-end tests of the flapstab command: outputs, JSON keys, and bad input (message naming file and
+// key, non-zero exit status, no output file).
+#include <gtest/gtest.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include "common/case_text.hpp"
+
+namespace flapstab {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::replace;
+using testing::valid_case_text;
+using testing::write_temp;
+
+struct CliRun {
+  int status;
+  std::string err;
+};
+
+CliRun flapstab(const std::string& args) {
+  const std::string errfile = write_temp("stderr.txt", "");
+  const std::string cmd = std::string(FLAPSTAB_BINARY) + " " + args + " > /dev/null 2> " + errfile;
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(errfile);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, ss.str()};
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST(Cli, TrimHoverOnTheHawkmothWritesTheDocumentedJson) {
+  const std::string out = write_temp("t.json", "");
+  fs::remove(out);
+  const CliRun r = flapstab("trim-hover " + std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml --json " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = read_json(out);
+  const auto& t = j.at("trim");
+  EXPECT_TRUE(t.at("converged").get<bool>());
+  EXPECT_LT(t.at("residuals").at("force_relative_to_weight").get<double>(), 1e-8);
+  EXPECT_LT(t.at("residuals").at("moment_relative_to_weight_times_wing_length").get<double>(), 1e-8);
+  EXPECT_GT(t.at("iterations").get<int>(), 0);
+  ASSERT_FALSE(t.at("parameters").empty());
+  for (const auto& p : t.at("parameters")) {
+    EXPECT_FALSE(p.at("name").get<std::string>().empty());
+    EXPECT_FALSE(p.at("unit").get<std::string>().empty());
+    EXPECT_TRUE(p.at("value").is_number());
+  }
+  EXPECT_TRUE(j.contains("conventions") || j.contains("program"));
+}
+
+TEST(Cli, DerivativesWritesTomlAndJson) {
+  const fs::path dir = fs::path(write_temp("x", "")).parent_path() / "der_out";
+  fs::remove_all(dir);
+  const CliRun r = flapstab("derivatives " + write_temp("d.toml", valid_case_text()) + " -q -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "derivatives.toml"));
+  const auto j = read_json((dir / "derivatives.json").string());
+  EXPECT_LT(j.at("derivatives").at("nondimensional").at("Xu").get<double>(), 0.0);
+}
+
+struct Bad {
+  const char* label;
+  const char* from;
+  const char* to;
+  const char* key;  // must appear in the message
+};
+
+class CliBadInput : public ::testing::TestWithParam<Bad> {};
+
+TEST_P(CliBadInput, FailsWithMessageAndNoOutput) {
+  const Bad b = GetParam();
+  const std::string path = write_temp(std::string("cli_") + b.label + ".toml", replace(valid_case_text(), b.from, b.to));
+  const std::string out = write_temp(std::string("cli_") + b.label + ".json", "");
+  const fs::path dir = fs::path(out).parent_path() / (std::string("cli_dir_") + b.label);
+  fs::remove(out);
+  fs::remove_all(dir);
+  for (const char* cmd : {"trim-hover", "derivatives"}) {
+    const CliRun r = flapstab(std::string(cmd) + " " + path + " --json " + out + " -o " + dir.string());
+    EXPECT_NE(r.status, 0) << cmd << " " << b.label;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(b.key), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << cmd << " " << b.label;
+    EXPECT_FALSE(fs::exists(dir)) << cmd << " " << b.label;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Inputs, CliBadInput,
+    ::testing::Values(
+        Bad{"missing_key", "mass_kg = 1.554e-3\n", "", "body.mass_kg"},
+        Bad{"wrong_type", "frequency_hz = 26.0", "frequency_hz = \"26\"", "kinematics.frequency_hz"},
+        Bad{"negative_mass", "mass_kg = 47e-6", "mass_kg = -47e-6", "wing.mass_kg"},
+        Bad{"nan", "length_m = 0.0519", "length_m = nan", "wing.length_m"},
+        Bad{"unknown_trim_parameter", "name = \"stroke_mean_deg\"", "name = \"stroke_offset_deg\"",
+            "trim.parameter[1].name"}),
+    [](const ::testing::TestParamInfo<Bad>& i) { return std::string(i.param.label); });
+
+// Infeasible trim: the stroke amplitude may not exceed 62 deg, far below what weight support needs.
+TEST(Cli, InfeasibleTrimFailsWithoutOutput) {
+  const std::string text = replace(replace(valid_case_text(), "lower = 60.0\nupper = 170.0", "lower = 60.0\nupper = 62.0"),
+                                   "cos_deg = [-60.0]", "cos_deg = [-30.5]");
+  const std::string path = write_temp("inf.toml", text), out = write_temp("inf.json", "");
+  fs::remove(out);
+  const CliRun r = flapstab("trim-hover " + path + " --json " + out);
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("trim.parameter"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, MissingCaseFileFails) {
+  const CliRun r = flapstab("trim-hover /nonexistent/case.toml");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("/nonexistent/case.toml"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace flapstab
