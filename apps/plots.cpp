@@ -84,8 +84,10 @@ std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {
   }
   std::string script = fmt::format(
       "set title {}\nset ylabel {}\nset style data histograms\nset style histogram clustered gap 1\n"
-      "set style fill solid 0.8 border -1\nset grid ytics\nset key outside right\nset yrange [0:*]\n",
+      "set style fill solid 0.8 border -1\nset grid ytics\nset key outside right\n",
       quote(p.title), quote(p.ylabel));
+  script += p.ymax > p.ymin ? fmt::format("set yrange [{}:{}]\nset ytics 45\nset xzeroaxis lt -1\n", p.ymin, p.ymax)
+                            : std::string("set yrange [0:*]\n");
   std::string plot = "plot ";
   for (std::size_t i = 0; i < p.groups.size(); ++i)
     plot += fmt::format("{}'d0.dat' using {}:xtic(1) title columnheader", i ? ", " : "", i + 2);

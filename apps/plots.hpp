@@ -31,6 +31,7 @@ struct BarPlot {
   std::string title, ylabel;
   std::vector<std::string> categories;
   std::vector<BarGroup> groups;
+  double ymin = 0, ymax = 0;   // fixed y range when ymax > ymin, else [0, auto]
 };
 std::optional<std::string> render_svg(const BarPlot& plot, std::string& why);
 

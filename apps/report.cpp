@@ -105,13 +105,13 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
     if (!*a) continue;
     BarPlot mag{fmt::format("{} mode shapes: |eigenvector| (attitude component = 1)", (*a)->name), "magnitude",
                 (*a)->state_order, {}};
-    BarPlot ph{fmt::format("{} mode shapes: phase relative to the attitude (deg)", (*a)->name), "phase + 180 (deg)",
-               (*a)->state_order, {}};
+    BarPlot ph{fmt::format("{} mode shapes: phase relative to the attitude (deg)", (*a)->name), "phase (deg)",
+               (*a)->state_order, {}, -180, 180};
     for (const auto& m : (*a)->modes) {
       BarGroup gm{m.label, {}}, gp{m.label, {}};
       for (const auto& v : m.eigenvector) {
         gm.values.push_back(std::abs(v));
-        gp.values.push_back(std::arg(v) / deg + 180.0);
+        gp.values.push_back(std::abs(v) > 1e-9 ? std::arg(v) / deg : 0.0);
       }
       mag.groups.push_back(gm);
       ph.groups.push_back(gp);
@@ -190,7 +190,7 @@ ReportFiles build_report(const ReportInputs& in) {
     md << figure_md(fmt::format("figures/modes_{}_magnitude.svg", (*a)->name),
                     fmt::format("{} mode shapes: eigenvector magnitudes, attitude component = 1.", (*a)->name), out);
     md << figure_md(fmt::format("figures/modes_{}_phase.svg", (*a)->name),
-                    fmt::format("{} mode shapes: phases relative to the attitude, plus 180°.", (*a)->name), out);
+                    fmt::format("{} mode shapes: phases relative to the attitude component (deg).", (*a)->name), out);
   }
   if (!out.figure_notice.empty()) md << "**Figures omitted:** " << out.figure_notice << "\n\n";
   md << "## Files\n\n- `results.json`: everything above, machine-readable (units and conventions inside).\n"
