@@ -75,7 +75,10 @@ std::optional<std::string> render_svg(const LinePlot& p, std::string& why) {
 
 std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {
   std::string d = "state";
-  for (const auto& g : p.groups) d += " " + quote(g.title);
+  for (const auto& g : p.groups) {
+    d += ' ';
+    d += quote(g.title);
+  }
   d += "\n";
   for (std::size_t c = 0; c < p.categories.size(); ++c) {
     d += quote(p.categories[c]);
