@@ -116,6 +116,70 @@ TEST(Cli, InfeasibleTrimFailsWithoutOutput) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+TEST(Cli, AnalyzeWritesTheReport) {
+  const fs::path dir = fs::path(write_temp("x", "")).parent_path() / "analyze_out";
+  fs::remove_all(dir);
+  const CliRun r = flapstab("analyze " + std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml -q -o " +
+                            dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* f : {"report.md", "report.html", "results.json", "derivatives.toml", "loads.csv"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  const auto j = read_json((dir / "results.json").string());
+  for (const char* k : {"longitudinal", "lateral", "6dof"}) EXPECT_TRUE(j.at("stability").contains(k)) << k;
+  // The derivative table it wrote reads back into `stability --derivatives`.
+  const std::string out = (dir / "stab.json").string();
+  const CliRun s = flapstab("stability --derivatives " + (dir / "derivatives.toml").string() +
+                            " --model longitudinal -q --json " + out);
+  ASSERT_EQ(s.status, 0) << s.err;
+  const auto st = read_json(out).at("stability");
+  EXPECT_EQ(st.at("state_order").size(), 4u);
+  EXPECT_EQ(st.at("modes").size(), 3u);
+  EXPECT_TRUE(st.at("modes")[0].contains("eigenvalue_nd"));
+}
+
+// A bad derivative table (missing entry, non-numeric, NaN, zero mass, negative inertia): message
+// naming the file and the key, non-zero exit, no output.
+TEST(Cli, BadDerivativeTableFailsWithoutOutput) {
+  const std::string good = R"([reference]
+U = 2.0
+c = 0.018
+S_t = 0.0019
+rho = 1.225
+frequency = 26.0
+[mass]
+m = 1.6e-3
+Ixx = 1e-7
+Iyy = 2e-7
+Izz = 2e-7
+Ixz = 0.0
+[derivatives.longitudinal]
+Xu = -1.8
+Xw = -0.2
+Xq = -0.8
+Zu = -0.2
+Zw = -1.8
+Zq = -0.4
+Mu = 1.9
+Mw = 0.5
+Mq = -1.1
+)";
+  struct Edit { const char* from; const char* to; const char* key; };
+  for (const Edit& e : {Edit{"Zq = -0.4\n", "", "Zq"}, Edit{"Mu = 1.9", "Mu = \"big\"", "Mu"},
+                        Edit{"Xu = -1.8", "Xu = nan", "Xu"}, Edit{"m = 1.6e-3", "m = 0.0", "m"},
+                        Edit{"Iyy = 2e-7", "Iyy = -2e-7", "Iyy"}}) {
+    const std::string path = write_temp("bad_table.toml", replace(good, e.from, e.to));
+    const std::string out = write_temp("bad_table.json", "");
+    fs::remove(out);
+    const CliRun r = flapstab("stability --derivatives " + path + " --json " + out);
+    EXPECT_NE(r.status, 0) << e.key;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(e.key), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << e.key;
+  }
+  const std::string ok = write_temp("good_table.toml", good), out = write_temp("good_table.json", "");
+  EXPECT_EQ(flapstab("stability --derivatives " + ok + " -q --json " + out).status, 0);
+}
+
 TEST(Cli, MissingCaseFileFails) {
   const CliRun r = flapstab("trim-hover /nonexistent/case.toml");
   EXPECT_NE(r.status, 0);
