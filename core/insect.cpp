@@ -1,5 +1,6 @@
 // Insect morphology: planform integrals and rigid-body mass properties.
 #include "core/insect.hpp"
+#include "core/quadrature.hpp"
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -33,28 +34,10 @@ double Wing::chord(double r) const {
 }
 
 namespace {
-// Gauss-Legendre nodes and weights on [-1, 1] (Golub-Welsch by Newton on P_n), computed once.
+// Gauss-Legendre rule of n points, computed once per n.
 struct Gauss {
   std::vector<double> x, w;
-  explicit Gauss(int n) {
-    for (int i = 0; i < n; ++i) {
-      double z = std::cos(pi * (i + 0.75) / (n + 0.5)), dp = 0;
-      for (int it = 0; it < 100; ++it) {
-        double p0 = 1, p1 = 0;
-        for (int k = 0; k < n; ++k) {
-          const double p2 = p1;
-          p1 = p0;
-          p0 = ((2 * k + 1) * z * p1 - k * p2) / (k + 1);
-        }
-        dp = n * (z * p0 - p1) / (z * z - 1);
-        const double dz = p0 / dp;
-        z -= dz;
-        if (std::abs(dz) < 1e-16) break;
-      }
-      x.push_back(z);
-      w.push_back(2 / ((1 - z * z) * dp * dp));
-    }
-  }
+  explicit Gauss(int n) { gauss_legendre(n, x, w); }
 };
 
 // Integral over the span of f(r, c(r)) dr. Analytic planforms: r = R sin(t), which removes the
