@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "apps/commands.hpp"
+#include "apps/floquet_command.hpp"
 #include "core/errors.hpp"
 
 namespace {
@@ -28,6 +29,10 @@ int main(int argc, char** argv) {
   CLI::App* der = app.add_subcommand("derivatives", "trim, then the cycle-averaged stability derivatives "
                                                     "(central differences in u, v, w, p, q, r)");
   add_common(der, o);
+  CLI::App* floq = app.add_subcommand("floquet", "time-periodic hover: cyclic trim of the free body-plus-wings "
+                                                 "system, phase-resolved derivatives, monodromy by two routes, Floquet "
+                                                 "multipliers and modes beside the averaged LTI modes");
+  add_common(floq, o);
   CLI::App* stab = app.add_subcommand("stability", "eigen-analysis of the hover: longitudinal [u w q theta], lateral "
                                                    "[v p r phi] and coupled 6DoF modes, from a case (trimmed first) "
                                                    "or a derivative table");
@@ -49,6 +54,7 @@ int main(int argc, char** argv) {
     if (trim->parsed()) return flapstab::run_trim_hover(o);
     if (der->parsed()) return flapstab::run_derivatives(o);
     if (an->parsed()) return flapstab::run_analyze(o);
+    if (floq->parsed()) return flapstab::run_floquet(o);
     if (stab->parsed()) {
       if (o.case_path.empty() == o.derivatives_path.empty()) {
         fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");

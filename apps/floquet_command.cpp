@@ -1,0 +1,226 @@
+// flapstab floquet: periodic hover (cyclic trim, phase-resolved derivatives, Floquet modes) beside the averaged LTI model.
+#include "apps/floquet_command.hpp"
+
+#include <chrono>
+#include <fmt/format.h>
+
+#include "apps/results_json.hpp"
+#include "apps/stability_json.hpp"
+#include "cfd/aero_factory.hpp"
+#include "core/atomic_write.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab {
+
+namespace {
+
+using nlohmann::json;
+using cplx = std::complex<double>;
+
+const std::vector<int> longitudinal_states{0, 2, 4, 7};  // in [u v w p q r phi theta]
+const std::vector<int> lateral_states{1, 3, 5, 6};
+
+Eigen::MatrixXd block(const Eigen::Matrix<double, 8, 8>& m, const std::vector<int>& idx) {
+  Eigen::MatrixXd b(Eigen::Index(idx.size()), Eigen::Index(idx.size()));
+  for (std::size_t i = 0; i < idx.size(); ++i)
+    for (std::size_t j = 0; j < idx.size(); ++j) b(Eigen::Index(i), Eigen::Index(j)) = m(idx[i], idx[j]);
+  return b;
+}
+
+FloquetSubsystem subsystem(const std::string& name, const std::vector<int>& idx, const FloquetStudy& s,
+                           const std::optional<StabilityAnalysis>& lti, const ReferenceQuantities& ref) {
+  std::vector<std::string> order;
+  for (int i : idx) order.push_back(linear_state_names()[std::size_t(i)]);
+  const Eigen::VectorXd scale = nondimensional_state_scale(order, ref);
+  const double T = s.cyclic.period;
+  FloquetSubsystem f;
+  const PeriodicMatrixSpline A(T, s.phase.system_samples(idx));
+  f.integration = monodromy([&](double t) { return A(t); }, Eigen::Index(idx.size()), T);
+  f.phase_resolved = floquet_analysis(name, order, f.integration.monodromy, T, scale, ref);
+  f.flow_sensitivity = floquet_analysis(name, order, block(s.cyclic.monodromy, idx), T, scale, ref);
+  for (std::size_t i = 0; i < idx.size(); ++i)
+    f.max_multiplier_difference = std::max(
+        f.max_multiplier_difference, std::abs(f.phase_resolved.multipliers[i] - f.flow_sensitivity.multipliers[i]));
+  f.lti = lti;
+  if (lti) f.lti_eigenvalues_nd = Eigen::EigenSolver<Eigen::MatrixXd>(lti->system_matrix_nd).eigenvalues();
+  return f;
+}
+
+json complex_list(const std::vector<cplx>& v) {
+  json j = json::array();
+  for (const cplx& z : v) j.push_back({z.real(), z.imag()});
+  return j;
+}
+
+json matrix_rows(const Eigen::MatrixXd& m) {
+  json j = json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < m.cols(); ++k) row.push_back(m(i, k));
+    j.push_back(row);
+  }
+  return j;
+}
+
+json analysis_json(const FloquetAnalysis& f) {
+  json j = {{"state_order", f.state_order},
+            {"period_s", f.period_s},
+            {"monodromy_si", matrix_rows(f.monodromy_si)},
+            {"monodromy_nd", matrix_rows(f.monodromy_nd)},
+            {"multipliers", complex_list(f.multipliers)},
+            {"exponents_per_s", complex_list(f.exponents_per_s)},
+            {"exponents_nd", complex_list(f.exponents_nd)},
+            {"exponents_per_wingbeat", complex_list(f.exponents_per_wingbeat)},
+            {"notices", f.notices}};
+  j["modes"] = f.modes.modes.empty() ? json::array() : to_json(f.modes)["modes"];
+  return j;
+}
+
+json subsystem_json(const FloquetSubsystem& f) {
+  json j = analysis_json(f.phase_resolved);
+  j["route"] = "phase_resolved (route 1)";
+  j["lti_eigenvalues_nd"] = json::array();
+  for (Eigen::Index i = 0; i < f.lti_eigenvalues_nd.size(); ++i)
+    j["lti_eigenvalues_nd"].push_back({f.lti_eigenvalues_nd(i).real(), f.lti_eigenvalues_nd(i).imag()});
+  if (f.lti) j["lti_modes"] = to_json(*f.lti)["modes"];
+  j["routes"] = {{"phase_resolved",
+                  {{"description", "Phi' = A(t) Phi over one wingbeat with CVODE (rtol 1e-10), A(t) a periodic cubic "
+                                   "spline through the phase-resolved linearisations"},
+                   {"cvode_steps", f.integration.steps},
+                   {"multipliers", complex_list(f.phase_resolved.multipliers)},
+                   {"exponents_nd", complex_list(f.phase_resolved.exponents_nd)}}},
+                 {"flow_sensitivity", analysis_json(f.flow_sensitivity)},
+                 {"max_multiplier_difference", f.max_multiplier_difference}};
+  j["routes"]["flow_sensitivity"]["description"] =
+      "d x(T) / d x(0) of the nonlinear free system about the cyclic orbit, CVODES forward sensitivities (rtol 1e-12)";
+  return j;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string fmt_c(cplx z) { return fmt::format("{:+.5f} {:+.5f}i", z.real(), z.imag()); }
+
+void print_subsystem(const char* title, const FloquetSubsystem& f) {
+  fmt::print("{} ({}; non-dimensional per t+ = t U / c, and per wingbeat):\n", title,
+             fmt::join(f.phase_resolved.state_order, ", "));
+  fmt::print("  {:<34} {:>26} {:>26} {:>26}\n", "Floquet mode", "exponent (nd)", "log(mu) per wingbeat", "|mu|");
+  for (const Mode& m : f.phase_resolved.modes.modes)
+    fmt::print("  {:<34} {:>26} {:>26} {:>26.6f}\n", m.label, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat),
+               std::exp(m.eigenvalue_per_wingbeat.real()));
+  if (f.lti)
+    for (const Mode& m : f.lti->modes)
+      fmt::print("  LTI {:<30} {:>26} {:>26}\n", m.label, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat));
+  for (const auto& n : f.phase_resolved.notices) fmt::print("  note: {}\n", n);
+  fmt::print("  routes agree: max |mu_phase - mu_flow| = {:.2e}\n", f.max_multiplier_difference);
+}
+
+}  // namespace
+
+FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_cyclic_trim_case(c, model);
+  FloquetStudy s;
+  s.averaged_trim = trim_hover(c, model);
+  if (!s.averaged_trim.converged)
+    throw SolveError(fmt::format("{}: the averaged trim (the cyclic trim's start) did not converge ({})", c.path,
+                                 s.averaged_trim.message));
+  s.cyclic = cyclic_trim(c, model, s.averaged_trim);
+  if (!s.cyclic.converged)
+    throw SolveError(fmt::format("{}: cyclic trim did not converge ({}); periodicity residual {:.2e}", c.path,
+                                 s.cyclic.message, s.cyclic.residual));
+  // The averaged model about the cyclic trim's kinematics, so both analyses see the same wingbeat.
+  s.averaged = cycle_averaged_derivatives(model, c.insect, s.cyclic.kinematics, c.fluid, c.derivatives.relative_step);
+  const StabilityReport lti = analyse_stability(s.averaged.table);
+  const int N = phases > 0 ? phases : c.aero.quasi_steady.samples_per_cycle;
+  const InstantaneousAero aero(model, c.insect, s.cyclic.kinematics);
+  const std::vector<BodyStateVector> orbit = periodic_orbit(aero, s.cyclic.initial_state, N);
+  s.phase = phase_resolved_derivatives(aero, orbit, s.averaged.table.reference, c.derivatives.relative_step);
+  const ReferenceQuantities& ref = s.averaged.table.reference;
+  s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
+  s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
+  s.wall_time_s = seconds_since(t0);
+  return s;
+}
+
+json floquet_json(const Case& c, const FloquetStudy& s) {
+  json j = metadata_json(c, "floquet");
+  const CyclicTrimResult& ct = s.cyclic;
+  json params = json::array();
+  for (const auto& p : ct.parameters)
+    params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"averaged_trim_value", p.initial},
+                      {"lower", p.lower}, {"upper", p.upper}});
+  json residuals = json::object();
+  for (std::size_t i = 0; i < ct.residual_names.size(); ++i) residuals[ct.residual_names[i]] = ct.residuals(Eigen::Index(i));
+  const std::vector<std::string> lon{"u", "w", "q", "theta"};
+  json amp_si = json::object(), amp_nd = json::object(), mean_si = json::object();
+  for (int i = 0; i < 4; ++i) {
+    amp_si[lon[std::size_t(i)]] = ct.amplitude_si(i);
+    amp_nd[lon[std::size_t(i)]] = ct.amplitude_nd(i);
+    mean_si[lon[std::size_t(i)]] = ct.mean_si(i);
+  }
+  const BodyStateVector& x0 = ct.initial_state;
+  j["cyclic_trim"] = {
+      {"converged", ct.converged},
+      {"residual", ct.residual},
+      {"residual_scaling", "velocities / U, rates * c / U, angles rad, drifts / c; max-norm"},
+      {"residuals", residuals},
+      {"iterations", ct.iterations},
+      {"integrations", ct.integrations},
+      {"message", ct.message},
+      {"period_s", ct.period},
+      {"parameters", params},
+      {"initial_state", {{"u_m_s", x0(3)}, {"w_m_s", x0(5)}, {"q_rad_s", x0(7)}, {"theta_rad", x0(10)}}},
+      {"mean_theta_rad", ct.mean_theta},
+      {"oscillation_amplitude_si", amp_si},
+      {"oscillation_amplitude_nd", amp_nd},
+      {"oscillation_note", "half peak-to-peak over the wingbeat (m/s, rad/s, rad; nd: / U, * c / U, rad)"},
+      {"cycle_mean_si", mean_si},
+      {"symmetry_residual", ct.symmetry_residual},
+      {"kinematics", kinematics_json(ct.kinematics)}};
+  j["averaged_trim"] = trim_json(s.averaged_trim);
+  j["derivatives"] = derivatives_json(s.averaged);
+  j["phase_resolved_derivatives"] = {{"phases", s.phase.samples.size()},
+                                     {"relative_step", s.phase.relative_step},
+                                     {"velocity_step_m_s", s.phase.velocity_step},
+                                     {"rate_step_rad_s", s.phase.rate_step},
+                                     {"about", "the cyclic orbit (each phase's own body velocity and rates)"},
+                                     {"cycle_mean_nd", matrix_rows(s.phase.mean_wrench_nd())}};
+  // The longitudinal subsystem is the headline: its keys at the top level.
+  const json lon_j = subsystem_json(s.longitudinal);
+  for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();
+  j["longitudinal"] = lon_j;
+  j["lateral"] = subsystem_json(s.lateral);
+  j["wall_time_s"] = s.wall_time_s;
+  return j;
+}
+
+int run_floquet(const CommandOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Case c = load_case(o.case_path);
+  const auto model = make_aero_model(c);
+  const FloquetStudy s = floquet_study(c, *model);
+  const std::string text = floquet_json(c, s).dump(2) + "\n";
+  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
+  if (!o.output_dir.empty()) write_file_atomic(o.output_dir + "/floquet.json", text);
+  if (!o.quiet) {
+    const CyclicTrimResult& ct = s.cyclic;
+    fmt::print("{}: cyclic hover trim of '{}': residual {:.2e} after {} Newton iterations ({} integrations)\n", c.path,
+               c.insect.name, ct.residual, ct.iterations, ct.integrations);
+    for (const auto& p : ct.parameters)
+      fmt::print("  {:<24} {:>12.6f} {:<3} (averaged trim {:.6f})\n", p.label, p.value, p.unit, p.initial);
+    fmt::print("  initial state u {:.4e} m/s, w {:.4e} m/s, q {:.4e} rad/s, theta {:.4e} rad\n", ct.initial_state(3),
+               ct.initial_state(5), ct.initial_state(7), ct.initial_state(10));
+    fmt::print("  within-cycle oscillation (half peak-to-peak): u {:.3e} m/s, w {:.3e} m/s, q {:.3e} rad/s, theta "
+               "{:.3e} rad ({:.3f} deg)\n",
+               ct.amplitude_si(0), ct.amplitude_si(1), ct.amplitude_si(2), ct.amplitude_si(3),
+               ct.amplitude_si(3) / deg);
+    print_subsystem("longitudinal", s.longitudinal);
+    print_subsystem("lateral", s.lateral);
+    fmt::print("done in {:.2f} s\n", seconds_since(t0));
+  }
+  return 0;
+}
+
+}  // namespace flapstab
