@@ -2,9 +2,12 @@
 #include "apps/commands.hpp"
 
 #include <chrono>
+#include <optional>
 #include <fmt/format.h>
 
+#include "apps/floquet_command.hpp"
 #include "apps/report.hpp"
+#include "apps/revolving.hpp"
 #include "apps/results_json.hpp"
 #include "apps/stability_json.hpp"
 #include "stability/analysis.hpp"
@@ -170,8 +173,29 @@ int run_analyze(const CommandOptions& o) {
   AeroRunOptions fine;
   fine.samples_per_cycle = 256;
   const WrenchHistory history = model->run(c.insect, t.kinematics, BodyMotion{}, fine);
+  // The time-periodic analysis and the revolving-wing comparison need an instantaneous model and a
+  // symmetric insect; where they cannot run, the report says why and the rest is still written.
+  std::vector<std::string> notices;
+  std::optional<FloquetStudy> floquet;
+  std::optional<RevolvingComparison> revolving;
+  try {
+    floquet = floquet_study(c, *model);
+  } catch (const std::exception& e) {
+    notices.push_back(std::string("Floquet analysis skipped: ") + e.what());
+  }
+  if (!c.kinematics.revolving()) {
+    try {
+      revolving = compare_with_revolving(c, t.kinematics, *model);
+    } catch (const std::exception& e) {
+      notices.push_back(std::string("revolving-wing comparison skipped: ") + e.what());
+    }
+  }
   const double secs = seconds_since(t0);
-  const ReportFiles files = build_report({&c, &t, &d, &rep, &history, secs});
+  ReportInputs inputs{&c, &t, &d, &rep, &history, secs};
+  inputs.floquet = floquet ? &*floquet : nullptr;
+  inputs.revolving = revolving ? &*revolving : nullptr;
+  inputs.notices = notices;
+  const ReportFiles files = build_report(inputs);
 
   nlohmann::json j = metadata_json(c, "analyze");
   j["trim"] = trim_json(t);
@@ -179,6 +203,9 @@ int run_analyze(const CommandOptions& o) {
   j["stability"] = stability_json(rep, "6dof");
   j["wall_time_s"] = secs;
   if (!files.figure_notice.empty()) j["figure_notice"] = files.figure_notice;
+  if (floquet) j["floquet"] = floquet_json(c, *floquet);
+  if (revolving) j["revolving_comparison"] = revolving_json(*revolving);
+  j["notices"] = notices;
   std::string csv =
       "# loads over the trimmed wingbeat; hover stability axes (x forward, y right, z down), about the wingbeat-mean "
       "CoM; SI units (s, N, N m, W)\n"

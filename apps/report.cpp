@@ -4,7 +4,9 @@
 #include <fmt/format.h>
 #include <sstream>
 
+#include "apps/floquet_command.hpp"
 #include "apps/plots.hpp"
+#include "apps/revolving.hpp"
 #include "apps/stability_json.hpp"
 
 namespace flapstab {
@@ -57,6 +59,52 @@ std::vector<std::string> table_cells(const std::string& line) {
     while (!c.empty() && c.back() == ' ') c.pop_back();
   }
   return cells;
+}
+
+std::string complex_str(std::complex<double> z) {
+  if (std::abs(z.imag()) < 1e-12) return fmt::format("{:.4g}", z.real());
+  return fmt::format("{:.4g} ± {:.4g}i", z.real(), std::abs(z.imag()));
+}
+
+// Floquet exponents beside the averaged LTI eigenvalues, one row per mode (conjugates once).
+std::string floquet_table(const FloquetSubsystem& f) {
+  std::string md = "| Floquet mode | exponent λ⁺ | log μ per wingbeat | multiplier modulus | averaged LTI mode | LTI λ⁺ |\n"
+                   "|---|---|---|---|---|---|\n";
+  const auto& fm = f.phase_resolved.modes.modes;
+  const std::size_t n = fm.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Mode& m = fm[i];
+    std::string lti_label = "—", lti_value = "—";
+    if (f.lti && i < f.lti->modes.size()) {
+      lti_label = f.lti->modes[i].label;
+      lti_value = complex_str(f.lti->modes[i].eigenvalue_nd);
+    }
+    md += fmt::format("| {} | {} | {} | {:.4g} | {} | {} |\n", m.label, complex_str(m.eigenvalue_nd),
+                      complex_str(m.eigenvalue_per_wingbeat), std::exp(m.eigenvalue_per_wingbeat.real()), lti_label,
+                      lti_value);
+  }
+  return md;
+}
+
+std::string mode_comparison_table(const StabilityAnalysis& a, const StabilityAnalysis& b) {
+  std::string md = "| flapping mode | λ⁺ | t×2 or t½ (s) | revolving mode | λ⁺ | t×2 or t½ (s) |\n|---|---|---|---|---|---|\n";
+  auto time = [](const Mode& m) {
+    if (m.time_to_double_s) return fmt::format("t×2 {:.3g}", *m.time_to_double_s);
+    if (m.time_to_half_s) return fmt::format("t½ {:.3g}", *m.time_to_half_s);
+    return std::string("—");
+  };
+  for (std::size_t i = 0; i < std::max(a.modes.size(), b.modes.size()); ++i) {
+    md += "| ";
+    md += i < a.modes.size() ? fmt::format("{} | {} | {}", a.modes[i].label, complex_str(a.modes[i].eigenvalue_nd),
+                                           time(a.modes[i]))
+                             : std::string("— | — | —");
+    md += " | ";
+    md += i < b.modes.size() ? fmt::format("{} | {} | {}", b.modes[i].label, complex_str(b.modes[i].eigenvalue_nd),
+                                           time(b.modes[i]))
+                             : std::string("— | — | —");
+    md += " |\n";
+  }
+  return md;
 }
 
 std::string figure_md(const std::string& name, const std::string& caption, const ReportFiles& f) {
@@ -192,6 +240,41 @@ ReportFiles build_report(const ReportInputs& in) {
     md << figure_md(fmt::format("figures/modes_{}_phase.svg", (*a)->name),
                     fmt::format("{} mode shapes: phases relative to the attitude component (deg).", (*a)->name), out);
   }
+  if (in.floquet) {
+    const FloquetStudy& f = *in.floquet;
+    const CyclicTrimResult& cy = f.cyclic;
+    md << "## Time-periodic hover (Floquet)\n\n";
+    md << fmt::format(
+        "Cyclic trim of the free body-plus-wings system (shooting with CVODES sensitivities): periodicity residual "
+        "{:.2e} after {} Newton iterations. Within-cycle oscillation (half peak-to-peak): u {:.3g} m/s, w {:.3g} m/s, "
+        "q {:.3g} rad/s, θ {:.3g}°. Monodromy by two routes (phase-resolved derivatives; sensitivities of the "
+        "nonlinear flow) agree to {:.1e} (longitudinal) and {:.1e} (lateral) in the multipliers.\n\n",
+        cy.residual, cy.iterations, cy.amplitude_si(0), cy.amplitude_si(1), cy.amplitude_si(2),
+        cy.amplitude_si(3) / deg, f.longitudinal.max_multiplier_difference, f.lateral.max_multiplier_difference);
+    md << "| parameter | cyclic trim | averaged trim | unit |\n|---|---|---|---|\n";
+    for (const auto& p : cy.parameters)
+      md << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n", p.label, p.value, p.initial, p.unit);
+    md << "\n### Longitudinal [u, w, q, θ]\n\n" << floquet_table(f.longitudinal);
+    md << "\n### Lateral [v, p, r, φ]\n\n" << floquet_table(f.lateral) << "\n";
+    md << "Exponents λ⁺ are per unit t⁺ = tU/c (log μ / T × c/U); a mode grows when |μ| > 1.\n\n";
+  }
+  if (in.revolving) {
+    const RevolvingComparison& r = *in.revolving;
+    md << "## Flapping versus revolving wings\n\n";
+    md << fmt::format(
+        "The equivalent revolving-wing flyer has the same insect with its wings revolving at the flapping wings' mean "
+        "stroke speed and fixed pitch {:.1f}° (the mean of the flapping mid-downstroke and mid-upstroke incidences), "
+        "trimmed to the same weight: "
+        "{:.4g} revolutions per second, body angle {:.2f}°, stroke plane {:.2f}° (residuals {:.1e}, {:.1e}).\n\n",
+        r.trim.kinematics.right.pitch.eval(0).f / deg, r.trim.kinematics.frequency_hz,
+        r.trim.kinematics.body_angle / deg, r.trim.kinematics.stroke_plane / deg, r.trim.relative_force_residual,
+        r.trim.relative_moment_residual);
+    if (in.stability->longitudinal && r.stability.longitudinal)
+      md << "### Longitudinal\n\n" << mode_comparison_table(*in.stability->longitudinal, *r.stability.longitudinal) << "\n";
+    if (in.stability->lateral && r.stability.lateral)
+      md << "### Lateral\n\n" << mode_comparison_table(*in.stability->lateral, *r.stability.lateral) << "\n";
+  }
+  for (const auto& n : in.notices) md << "**Note:** " << n << "\n\n";
   if (!out.figure_notice.empty()) md << "**Figures omitted:** " << out.figure_notice << "\n\n";
   md << "## Files\n\n- `results.json`: everything above, machine-readable (units and conventions inside).\n"
         "- `derivatives.toml`: the derivative table (docs/derivative-table.md), readable by `flapstab stability "

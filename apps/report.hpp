@@ -7,7 +7,12 @@
 #include "stability/analysis.hpp"
 #include "trim/trim.hpp"
 
+#include <vector>
+
 namespace flapstab {
+
+struct FloquetStudy;
+struct RevolvingComparison;
 
 struct ReportInputs {
   const Case* case_file = nullptr;
@@ -16,6 +21,9 @@ struct ReportInputs {
   const StabilityReport* stability = nullptr;
   const WrenchHistory* history = nullptr;  // loads over the trimmed cycle
   double wall_time_s = 0;
+  const FloquetStudy* floquet = nullptr;          // time-periodic analysis (optional)
+  const RevolvingComparison* revolving = nullptr; // equivalent revolving-wing flyer (optional)
+  std::vector<std::string> notices;               // analyses skipped and why
 };
 
 struct ReportFiles {

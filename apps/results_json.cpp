@@ -44,6 +44,7 @@ json kinematics_json(const Kinematics& k) {
       for (double x : f->a) c.push_back(x / deg);
       for (double x : f->b) s.push_back(x / deg);
       j = {{"type", "fourier"}, {"mean_deg", f->mean / deg}, {"cos_deg", c}, {"sin_deg", s}};
+      if (f->rate != 0) j["rate_deg_per_cycle"] = f->rate / deg;
     } else {
       std::vector<double> v, d;
       for (double x : a.hermite()->values) v.push_back(x / deg);

@@ -262,6 +262,21 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   k.body_angle = s.number("body_angle_deg", "a number in degrees") * deg;
   if (std::abs(k.stroke_plane) > 90 * deg) s.fail("stroke_plane_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
   if (std::abs(k.body_angle) > 90 * deg) s.fail("body_angle_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
+  if (s.string("type", false, "flapping", {"flapping", "revolving"}) == "revolving") {
+    // Revolving wings: constant stroke velocity (one revolution per cycle, towards the head at the
+    // lateral position), fixed pitch = incidence, no deviation; the left wing mirrors the right.
+    for (const char* key : {"stroke", "deviation", "pitch", "file", "left"})
+      if (s.has(key)) s.fail(key, "given for revolving wings", "only pitch_deg for type = \"revolving\"");
+    const double pitch = s.number("pitch_deg", "the fixed incidence in degrees, in (0, 90]");
+    if (!(pitch > 0 && pitch <= 90)) s.fail("pitch_deg", "outside (0, 90]", "the fixed incidence in degrees, in (0, 90]");
+    k.right.stroke = FourierSeries{0.0, {}, {}, 2 * pi};
+    k.right.deviation = FourierSeries{};
+    k.right.pitch = FourierSeries{pitch * deg, {}, {}};
+    k.left = k.right;
+    s.reject_unknown();
+    return k;
+  }
+  if (s.has("pitch_deg")) s.fail("pitch_deg", "given for flapping wings", "type = \"revolving\" (or a [kinematics.pitch] table)");
   k.right = parse_wing_angles(s, dir, nullptr);
   if (s.has("left")) {
     Section l = s.sub("left", true);

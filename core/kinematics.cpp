@@ -23,7 +23,8 @@ bool Kinematics::symmetric() const {
 }
 
 double Kinematics::stroke_amplitude() const {
-  return 0.5 * (right.stroke.peak_to_peak() + left.stroke.peak_to_peak());
+  auto amp = [](const AngleSeries& s) { return s.revolving() ? 0.5 * std::abs(s.fourier()->rate) : s.peak_to_peak(); };
+  return 0.5 * (amp(right.stroke) + amp(left.stroke));
 }
 
 }  // namespace flapstab

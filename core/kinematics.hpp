@@ -41,8 +41,11 @@ struct Kinematics {
   WingAngleState angles(Side s, double t) const;
   // True when left and right angle histories agree at every sampled phase (to 1e-14 rad).
   bool symmetric() const;
-  // Stroke amplitude Phi (rad, peak to peak), the mean of the two wings.
+  // Stroke amplitude Phi (rad, peak to peak), the mean of the two wings. For revolving wings, half the
+  // angle swept per cycle, so that 2 Phi n r2 is the mean speed at r2 in both cases.
   double stroke_amplitude() const;
+  // True when the wings revolve (constant stroke velocity, docs/case-file.md) instead of flapping.
+  bool revolving() const { return right.stroke.revolving(); }
 };
 
 }  // namespace flapstab

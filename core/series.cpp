@@ -2,12 +2,13 @@
 #include "core/series.hpp"
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include "core/types.hpp"
 
 namespace flapstab {
 
 SeriesValue FourierSeries::eval(double tau) const {
-  SeriesValue v{mean, 0, 0};
+  SeriesValue v{mean + rate * tau, rate, 0};
   for (std::size_t i = 0; i < a.size(); ++i) {
     const double w = 2 * pi * double(i + 1);
     const double c = std::cos(w * tau), s = std::sin(w * tau);
@@ -48,6 +49,7 @@ double AngleSeries::mean() const {
 }
 
 double AngleSeries::peak_to_peak() const {
+  if (revolving()) throw std::logic_error("peak-to-peak amplitude of a revolving angle");
   constexpr int n = 2048;
   double lo = 1e300, hi = -1e300;
   for (int i = 0; i < n; ++i) {

@@ -11,11 +11,13 @@ struct SeriesValue {
   double f = 0, df = 0, ddf = 0;
 };
 
-// f(tau) = mean + sum_k a[k-1] cos(2 pi k tau) + b[k-1] sin(2 pi k tau).
+// f(tau) = mean + rate tau + sum_k a[k-1] cos(2 pi k tau) + b[k-1] sin(2 pi k tau).
 // Note: `mean` is the mean itself (FLUSI files store a0 = 2 x mean; the reader converts).
+// `rate` (per cycle) is zero for flapping; a revolving wing sweeps rate = 2 pi per cycle.
 struct FourierSeries {
   double mean = 0;
   std::vector<double> a, b;  // same length
+  double rate = 0;
   SeriesValue eval(double tau) const;
 };
 
@@ -42,6 +44,8 @@ class AngleSeries {
   // Scales the oscillating part about the mean by s.
   void scale_oscillation(double s);
   bool is_fourier() const { return std::holds_alternative<FourierSeries>(s_); }
+  // True for a secular (revolving) angle: a Fourier series with a non-zero rate.
+  bool revolving() const { return fourier() && fourier()->rate != 0; }
   const FourierSeries* fourier() const { return std::get_if<FourierSeries>(&s_); }
   const HermiteSeries* hermite() const { return std::get_if<HermiteSeries>(&s_); }
 

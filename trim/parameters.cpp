@@ -53,6 +53,10 @@ TrimParameterization::TrimParameterization(const Kinematics& base, std::vector<T
     const bool global = s.name == "frequency_hz" || s.name == "stroke_plane_deg" || s.name == "body_angle_deg";
     if (global && s.side != ParameterSide::both)
       throw InputError(file, key + ".side", "\"" + s.name + "\" applies to the whole insect", "side = \"both\"");
+    if (base_.revolving() && (s.name == "stroke_amplitude_deg" || s.name == "stroke_mean_deg" ||
+                              s.name == "pitch_amplitude_deg"))
+      throw InputError(file, key + ".name", "\"" + s.name + "\" has no meaning for revolving wings",
+                       "frequency_hz, pitch_mean_deg, body_angle_deg, stroke_plane_deg or deviation_mean_deg");
     if (s.name == "stroke_amplitude_deg" || s.name == "pitch_amplitude_deg") {
       for (const WingAngles* w : wings(base_, s.side)) {
         const AngleSeries& a = s.name == "stroke_amplitude_deg" ? w->stroke : w->pitch;

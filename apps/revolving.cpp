@@ -1,0 +1,63 @@
+// The equivalent revolving-wing flyer and its modes.
+#include "apps/revolving.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+
+#include "apps/results_json.hpp"
+#include "apps/stability_json.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab {
+
+Case revolving_equivalent(const Case& flapping, const Kinematics& trimmed) {
+  Case c = flapping;
+  c.path = flapping.path + " (equivalent revolving-wing flyer)";
+  Kinematics& k = c.kinematics;
+  k = trimmed;
+  // Mean |dphi/dt| of a flapping stroke = 2 Phi n; a revolution per cycle sweeps 2 pi n.
+  k.frequency_hz = trimmed.stroke_amplitude() * trimmed.frequency_hz / pi;
+  // Mean of the mid-downstroke (alpha) and mid-upstroke (180 deg - alpha) incidences.
+  const double incidence = 0.5 * (trimmed.right.pitch.eval(0.25).f + pi - trimmed.right.pitch.eval(0.75).f);
+  k.right.stroke = FourierSeries{0.0, {}, {}, 2 * pi};
+  k.right.deviation = FourierSeries{};
+  k.right.pitch = FourierSeries{std::clamp(incidence, 1 * deg, 90 * deg), {}, {}};
+  k.left = k.right;
+  const double n = k.frequency_hz, chi = k.body_angle / deg, beta = k.stroke_plane / deg;
+  c.trim.parameters = {
+      {"frequency_hz", 0.3 * n, 3.0 * n, ParameterSide::both},
+      {"body_angle_deg", std::max(-89.0, chi - 40), std::min(89.0, chi + 40), ParameterSide::both},
+      {"stroke_plane_deg", std::max(-89.0, beta - 40), std::min(89.0, beta + 40), ParameterSide::both}};
+  c.trim.objective = "least-change";
+  return c;
+}
+
+RevolvingComparison compare_with_revolving(const Case& flapping, const Kinematics& trimmed, const AeroModel& model) {
+  RevolvingComparison r;
+  r.revolving_case = revolving_equivalent(flapping, trimmed);
+  r.trim = trim_hover(r.revolving_case, model);
+  if (!r.trim.converged)
+    throw SolveError(fmt::format("{}: the equivalent revolving-wing flyer did not trim ({}; residuals {:.2e}, {:.2e})",
+                                 flapping.path, r.trim.message, r.trim.relative_force_residual,
+                                 r.trim.relative_moment_residual));
+  r.derivatives = cycle_averaged_derivatives(model, r.revolving_case.insect, r.trim.kinematics, r.revolving_case.fluid,
+                                             r.revolving_case.derivatives.relative_step);
+  StabilityRequest req;
+  req.six_dof = true;
+  r.stability = analyse_stability(r.derivatives.table, req);
+  return r;
+}
+
+nlohmann::json revolving_json(const RevolvingComparison& r) {
+  return {{"description",
+           "equivalent revolving-wing flyer: same insect, wings revolving at the flapping wings' mean stroke speed "
+           "with fixed pitch equal to the mean of the flapping mid-downstroke and mid-upstroke incidences, trimmed to the "
+           "same weight "
+           "(frequency, body angle, stroke plane)"},
+          {"pitch_deg", r.trim.kinematics.right.pitch.eval(0).f / deg},
+          {"trim", trim_json(r.trim)},
+          {"derivatives", derivatives_json(r.derivatives)},
+          {"stability", to_json(r.stability)}};
+}
+
+}  // namespace flapstab
