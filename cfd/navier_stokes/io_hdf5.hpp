@@ -1,0 +1,137 @@
+// Flow-field output (HDF5 + XDMF for ParaView) and exact checkpoints (HDF5), on a rectilinear grid.
+//
+// Layouts, units and how to open the files: docs/cfd-files.md. Every file is written under a temporary
+// name and renamed into place, so a run that fails leaves either the old file or the new one.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace flapstab::ns {
+
+// Cell-face (node) coordinates of a rectilinear grid (m), strictly increasing: x.size() = nx + 1 for
+// nx cells. Non-uniform spacing is the general case.
+struct RectilinearAxes {
+  std::vector<double> x, y, z;
+  std::array<std::size_t, 3> cells() const;  // nx, ny, nz
+  // Throws std::invalid_argument unless each axis has >= 2 strictly increasing finite values.
+  void check() const;
+};
+
+// A cell-centred array: the value of cell (i, j, k) is data[i sx + j sy + k sz]. Strides 0 mean
+// contiguous with x fastest (sx = 1, sy = nx, sz = nx ny). For an array with ghost layers, point data
+// at the first interior cell and give the padded strides.
+struct CellArray {
+  const double* data = nullptr;
+  std::ptrdiff_t sx = 1, sy = 0, sz = 0;
+};
+
+// A named cell-centred field: one component (scalar) or three (vector, x y z in stability axes).
+struct CellField {
+  std::string name;   // letters, digits, '_', '-', '.'; the HDF5 dataset and the ParaView array name
+  std::string units;  // SI, e.g. "m/s", "Pa", "1/s"
+  std::vector<CellArray> components;
+};
+
+enum class FieldPrecision { float64, float32 };
+
+// Writes one HDF5 file and one XDMF file per output time, <directory>/<name>_<step>.h5/.xmf, and keeps
+// the time series <directory>/<name>.xmf (an XDMF temporal collection over every output) current.
+class FieldWriter {
+ public:
+  // Outputs of an earlier run already in the directory join the series (restarts append to it).
+  FieldWriter(std::string directory, std::string name, RectilinearAxes axes,
+              FieldPrecision precision = FieldPrecision::float64);
+  // Writes the fields at one time (s) and step; returns the .h5 path. Outputs an earlier run left at
+  // later steps leave the series (a restart has overtaken them).
+  std::string write(double time, std::int64_t step, const std::vector<CellField>& fields);
+  std::string series_path() const;
+
+  // What one output file holds; public for the tests and the docs' examples.
+  struct Record {
+    std::string file;  // .h5 file name, relative to the directory
+    double time = 0;
+    std::int64_t step = 0;
+    std::array<std::size_t, 3> cells{};
+    int precision_bytes = 8;
+    struct Field {
+      std::string name, units;
+      int components = 1;
+    };
+    std::vector<Field> fields;
+  };
+
+ private:
+  std::string directory_, name_;
+  RectilinearAxes axes_;
+  FieldPrecision precision_;
+  std::map<std::int64_t, Record> series_;  // by step
+};
+
+// One field read back from a field file (post-processing and tests), as float64 in the file's layout:
+// index ((k ny + j) nx + i) components + c.
+struct StoredField {
+  std::array<std::size_t, 3> cells{};  // nx, ny, nz
+  int components = 1;
+  std::string units;
+  std::vector<double> values;
+};
+// InputError(path, name, ...) for a missing file, dataset or a file that is not a flapstab field file.
+StoredField read_field(const std::string& path, const std::string& name);
+RectilinearAxes read_axes(const std::string& path);
+
+// The XDMF text for one output (a Uniform 3DRectMesh grid with cell-centred attributes) or for a
+// temporal collection of outputs.
+std::string xdmf_output(const FieldWriter::Record& r);
+std::string xdmf_series(const std::vector<FieldWriter::Record>& records);
+
+// ---- Checkpoints ---------------------------------------------------------------------------------
+
+constexpr int checkpoint_format_version = 1;
+
+struct CheckpointHeader {
+  double time = 0;        // s
+  std::int64_t step = 0;
+  std::map<std::string, double> values;     // scalar state (time step, Reynolds number, ...)
+  std::map<std::string, std::string> text;  // descriptions (case hash, grid summary, ...)
+};
+
+struct CheckpointArray {
+  std::string name;                  // letters, digits, '_', '-', '.'
+  std::span<const double> data;
+  std::vector<std::size_t> shape;    // optional; empty: one-dimensional. Product must equal data.size()
+};
+
+// Writes every array bit for bit (IEEE float64) and the header into one HDF5 file, atomically.
+void write_checkpoint(const std::string& path, const CheckpointHeader& header,
+                      const std::vector<CheckpointArray>& arrays);
+
+// Opens a checkpoint; InputError for a missing or unreadable file, one that is not a flapstab
+// checkpoint, or one of a newer format version.
+class CheckpointReader {
+ public:
+  explicit CheckpointReader(const std::string& path);
+  ~CheckpointReader();
+  CheckpointReader(const CheckpointReader&) = delete;
+  CheckpointReader& operator=(const CheckpointReader&) = delete;
+
+  const CheckpointHeader& header() const { return header_; }
+  std::vector<std::string> names() const;
+  bool contains(const std::string& name) const;
+  std::vector<std::size_t> shape(const std::string& name) const;
+  // Reads an array into `out`, whose size must match; InputError(path, name, ...) when the array is
+  // missing or its size differs.
+  void read(const std::string& name, std::span<double> out) const;
+  std::vector<double> read(const std::string& name) const;
+
+ private:
+  std::string path_;
+  std::int64_t file_ = -1;  // hid_t
+  CheckpointHeader header_;
+};
+
+}  // namespace flapstab::ns
