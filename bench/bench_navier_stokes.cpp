@@ -1,0 +1,103 @@
+// Benchmarks of the Navier-Stokes core (no bodies): cost per cell per time step of the 3D Taylor-Green vortex in a
+// periodic box, and of one pressure-Poisson iteration, FP64, on 1 and 2 OpenMP threads, with the memory traffic of
+// the kernels per cell and the bandwidth that traffic implies (DEPENDENCIES.md section 6: ~38 GB/s on one core,
+// ~42 GB/s on two). Figure of merit as WaterLily.jl reports it (PEERS.md A.1): wall time per step / cells.
+// Run: cmake -S . -B build -DFLAPSTAB_BUILD_BENCH=ON && cmake --build build --target bench_navier_stokes &&
+//      ./build/bench/bench_navier_stokes
+#include <benchmark/benchmark.h>
+#include <omp.h>
+#include <chrono>
+#include <cmath>
+#include "cfd/navier_stokes/solver.hpp"
+
+namespace {
+
+using namespace flapstab::ns;
+using flapstab::pi;
+using flapstab::Vec3;
+
+// Bytes each kernel moves per cell (write-allocate not counted, as in STREAM). Per RK3 stage: predictor (read u, v,
+// w, p, N_prev; write N_prev, u*) 104; divergence (read u*, write b) 32; mean and max of b 8; residual of the
+// initial guess (read phi, b; write b) 24; projection (read u*, phi, p; write u, p) 72 -> 240. Per step: the
+// CFL pass (read u, v, w) 24. Per Poisson iteration, finest level: the single-precision V(2,2) cycle (first sweep
+// from zero reads r and writes b, x: 20; three sweeps reading x, b, 1/diag and writing x: 3 x 16; the final
+// colour also writes z in double: 8; restriction reads x, b: 8; prolongation reads and writes x: 8), coarse
+// levels +1/7 -> 105; conjugate-gradient vectors (<z, q>: 16; p = z + beta p: 24; q = L p with <p, q>, <p, r>:
+// 24; x and r update: 48) 112; the first iteration of a solve has no <z, q> and no p update (-40).
+constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40;
+
+// 3D Taylor-Green vortex (Brachet et al. 1983), Re = 1600 on the box scale: u = sin x cos y cos z,
+// v = -cos x sin y cos z, w = 0 in [0, 2 pi]^3; adaptive step at CFL 1.
+Solver taylor_green(int n) {
+  const Axis a = Axis::uniform(0, 2 * pi, n, true);
+  SolverOptions opt;
+  opt.nu = 1.0 / 1600;
+  opt.cfl = 1.0;
+  Solver s(Grid(a, a, a), Boundaries::all(BC::periodic), opt);
+  s.initialise([](double x, double y, double z) {
+    return Vec3(std::sin(x) * std::cos(y) * std::cos(z), -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
+  });
+  return s;
+}
+
+void BM_TaylorGreenStep(benchmark::State& state) {
+  const int n = int(state.range(0)), threads = int(state.range(1));
+  omp_set_num_threads(threads);
+  Solver s = taylor_green(n);
+  for (int k = 0; k < 10; ++k) s.step();  // leave the start-up (no initial guess yet, pressure adjusting)
+  const double cells = double(s.grid().cells());
+  double seconds = 0, iterations = 0;
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    s.step();
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ++steps;
+    for (const auto& st : s.poisson_stats()) iterations += st.cycles;
+  }
+  const double per_step = iterations / steps;
+  const double bytes = 3 * stage_bytes + step_bytes + per_step * iteration_bytes - 3 * first_iteration_saving;
+  state.counters["ns_per_cell_step"] = seconds * 1e9 / (steps * cells);
+  state.counters["poisson_iterations_per_step"] = per_step;
+  state.counters["bytes_per_cell_step"] = bytes;
+  state.counters["implied_GB_per_s"] = bytes * steps * cells / seconds / 1e9;
+  state.counters["memory_MB"] = double(s.bytes()) / 1e6;
+}
+BENCHMARK(BM_TaylorGreenStep)
+    ->Args({128, 1})
+    ->Args({128, 2})
+    ->Args({64, 1})
+    ->Args({64, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(5);
+
+// One flexible-CG iteration (one V(2,2) cycle plus the Krylov vectors) on a periodic box.
+void BM_PoissonIteration(benchmark::State& state) {
+  const int n = int(state.range(0)), threads = int(state.range(1));
+  omp_set_num_threads(threads);
+  const Axis a = Axis::uniform(0, 1, n, true);
+  const Grid g(a, a, a);
+  Poisson P(g, Boundaries::all(BC::periodic).pressure());
+  Field x(g.shape()), b(g.shape()), b0(g.shape());
+  for (int k = 1; k <= n; ++k)
+    for (int j = 1; j <= n; ++j)
+      for (int i = 1; i <= n; ++i) b0(i, j, k) = std::sin(2 * pi * (i + 0.5) / n) * std::cos(2 * pi * (j * j + k) / n);
+  PoissonOptions opt;
+  opt.rtol = 0;
+  opt.max_cycles = 4;
+  double seconds = 0;
+  std::int64_t its = 0;
+  for (auto _ : state) {
+    b = b0;
+    const auto t0 = std::chrono::steady_clock::now();
+    its += P.solve(x, b, opt).cycles;
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  const double cells = double(g.cells());
+  state.counters["ns_per_cell_iteration"] = seconds * 1e9 / (its * cells);
+  state.counters["implied_GB_per_s"] = iteration_bytes * its * cells / seconds / 1e9;
+}
+BENCHMARK(BM_PoissonIteration)->Args({128, 1})->Args({128, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace

@@ -1,0 +1,50 @@
+// Boundary conditions on the six faces of the box, and the ghost values that impose them.
+#pragma once
+#include <array>
+#include <functional>
+#include "cfd/navier_stokes/grid.hpp"
+#include "core/types.hpp"
+
+namespace flapstab::ns {
+
+enum class BC {
+  periodic,  // both faces of the axis; pressure periodic
+  velocity,  // prescribed velocity (no-slip wall, moving lid, inflow); pressure Neumann
+  outflow,   // zero normal gradient of every velocity component; pressure Dirichlet p = 0
+};
+
+// Boundary condition of the pressure-like scalars (pressure, its increment, multigrid corrections).
+enum class ScalarBC { periodic, neumann, dirichlet };
+using ScalarBCs = std::array<ScalarBC, 6>;  // indexed by face(axis, side)
+
+constexpr int face(int axis, int side) { return 2 * axis + side; }  // side 0: lower, 1: upper
+
+struct FaceCondition {
+  BC type = BC::velocity;
+  std::function<Vec3(double t)> velocity;  // BC::velocity only; empty means at rest
+  Vec3 at(double t) const { return velocity ? velocity(t) : Vec3::Zero(); }
+};
+
+// Conditions of faces x-, x+, y-, y+, z-, z+ (index face(axis, side)).
+struct Boundaries {
+  std::array<FaceCondition, 6> face;
+  static Boundaries all(BC type);
+  BC type(int axis, int side) const { return face[ns::face(axis, side)].type; }
+  bool periodic(int axis) const { return type(axis, 0) == BC::periodic; }
+  ScalarBCs pressure() const;
+  // Throws unless periodic faces come in pairs and match the grid's periodic axes.
+  void check(const Grid& g) const;
+};
+
+// Scalar ghosts: periodic image, mirror (Neumann) or negated mirror (Dirichlet zero on the face).
+void fill_ghosts(Field& p, const ScalarBCs& bc);
+
+// Boundary faces of the normal components at time t: prescribed, copied from the first interior face
+// (outflow) or the periodic image. Called on the predicted velocity before projection.
+void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t);
+
+// Ghost values of every component at time t: periodic images, tangential wall values by the mirror
+// 2 U - u, zero gradient at an outflow. Called after projection so stencils see BC-consistent data.
+void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t);
+
+}  // namespace flapstab::ns

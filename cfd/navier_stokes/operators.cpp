@@ -1,0 +1,238 @@
+// MAC operators on the non-uniform grid (Harlow & Welch 1965 staggering; flux form of the momentum equation).
+#include "cfd/navier_stokes/operators.hpp"
+#include <algorithm>
+#include <cmath>
+
+namespace flapstab::ns {
+
+namespace {
+
+struct AxisView {
+  const real *idc, *idf, *wlo, *whi;
+  explicit AxisView(const Axis& a) : idc(a.idc.data()), idf(a.idf.data()), wlo(a.wlo.data()), whi(a.whi.data()) {}
+};
+
+// d/dx_e (u_e u_d) - nu d2u_d/dx_e2 at the u_d point n (face Id along d, cell Ie along e): the divergence of the
+// convective and viscous fluxes through the two e-faces of u_d's control volume.
+template <int d, int e>
+inline real transport(const real* __restrict ud, const real* __restrict ue, std::ptrdiff_t n, std::ptrdiff_t sd,
+                      std::ptrdiff_t se, const AxisView& Ad, const AxisView& Ae, int Id, int Ie, real nu) {
+  if constexpr (d == e) {  // fluxes at the cell centres Id - 1 and Id, where u_d is the mean of its two faces
+    const real hi = real(0.5) * (ud[n] + ud[n + sd]), lo = real(0.5) * (ud[n - sd] + ud[n]);
+    const real visc = (ud[n + sd] - ud[n]) * Ad.idc[Id] - (ud[n] - ud[n - sd]) * Ad.idc[Id - 1];
+    return (hi * hi - lo * lo - nu * visc) * Ad.idf[Id];
+  } else {  // fluxes at the edges (face Id along d, faces Ie and Ie + 1 along e)
+    const real ue_hi = Ad.wlo[Id] * ue[n + se - sd] + Ad.whi[Id] * ue[n + se];
+    const real ue_lo = Ad.wlo[Id] * ue[n - sd] + Ad.whi[Id] * ue[n];
+    const real ud_hi = Ae.wlo[Ie + 1] * ud[n] + Ae.whi[Ie + 1] * ud[n + se];
+    const real ud_lo = Ae.wlo[Ie] * ud[n - se] + Ae.whi[Ie] * ud[n];
+    const real visc = (ud[n + se] - ud[n]) * Ae.idf[Ie + 1] - (ud[n] - ud[n - se]) * Ae.idf[Ie];
+    return (ue_hi * ud_hi - ue_lo * ud_lo - nu * visc) * Ae.idc[Ie];
+  }
+}
+
+// Stride of direction d in the padded array; the unit stride of x must be a compile-time constant to vectorise.
+template <int d>
+inline std::ptrdiff_t stride(std::ptrdiff_t sy, std::ptrdiff_t sz) {
+  if constexpr (d == 0) return 1;
+  if constexpr (d == 1) return sy;
+  return sz;
+}
+
+// The momentum right-hand side -r of component d at point n and the predicted value (see predict()).
+template <int d>
+inline void predict_point(const real* __restrict u0, const real* __restrict u1, const real* __restrict u2,
+                          const real* __restrict pp, real* __restrict N, real* __restrict out, std::ptrdiff_t n,
+                          std::ptrdiff_t sy, std::ptrdiff_t sz, AxisView X, AxisView Y, AxisView Z, int i, int j, int k,
+                          real nu, real gdt, real zdt, real adt) {
+  const real* ud = d == 0 ? u0 : d == 1 ? u1 : u2;
+  const AxisView& Ad = d == 0 ? X : d == 1 ? Y : Z;
+  const int Id = d == 0 ? i : d == 1 ? j : k;
+  const std::ptrdiff_t sd = stride<d>(sy, sz);
+  const real r = transport<d, 0>(ud, u0, n, sd, 1, Ad, X, Id, i, nu) + transport<d, 1>(ud, u1, n, sd, sy, Ad, Y, Id, j, nu) +
+                 transport<d, 2>(ud, u2, n, sd, sz, Ad, Z, Id, k, nu);
+  out[n] = ud[n] - gdt * r + zdt * N[n] - adt * (pp[n] - pp[n - sd]) * Ad.idf[Id];
+  N[n] = -r;
+}
+
+struct PredictArgs {
+  AxisView A[3];
+  const real* U[3];
+  const real* p;
+  real *N[3], *out[3];
+  real nu, gdt, zdt, adt;
+};
+
+FLAPSTAB_KERNEL void predict_plane(const Shape& s, int k, const PredictArgs& a) {
+  // Everything the loop reads into locals: stores through N and out then cannot alias it, so it vectorises.
+  const AxisView X = a.A[0], Y = a.A[1], Z = a.A[2];
+  const real *u0 = a.U[0], *u1 = a.U[1], *u2 = a.U[2], *p = a.p;
+  real *N0 = a.N[0], *N1 = a.N[1], *N2 = a.N[2], *o0 = a.out[0], *o1 = a.out[1], *o2 = a.out[2];
+  const real nu = a.nu, gdt = a.gdt, zdt = a.zdt, adt = a.adt;
+  const std::ptrdiff_t sy = s.sy, sz = s.sz;
+  for (int j = 1; j <= s.ny; ++j) {
+    const std::ptrdiff_t row = s(0, j, k);
+#pragma omp simd
+    for (int i = 1; i <= s.nx; ++i) {
+      predict_point<0>(u0, u1, u2, p, N0, o0, row + i, sy, sz, X, Y, Z, i, j, k, nu, gdt, zdt, adt);
+      predict_point<1>(u0, u1, u2, p, N1, o1, row + i, sy, sz, X, Y, Z, i, j, k, nu, gdt, zdt, adt);
+      predict_point<2>(u0, u1, u2, p, N2, o2, row + i, sy, sz, X, Y, Z, i, j, k, nu, gdt, zdt, adt);
+    }
+  }
+}
+
+FLAPSTAB_KERNEL void divergence_plane(const Grid& g, int k, const VectorField& u, Field& div, real scale) {
+  const Shape& s = div.shape();
+  const real* __restrict ix = g.axis[0].idc.data();
+  const real* __restrict u0 = u[0].data();
+  const real* __restrict u1 = u[1].data();
+  const real* __restrict u2 = u[2].data();
+  real* __restrict out = div.data();
+  const real izk = g.axis[2].idc[k];
+  for (int j = 1; j <= s.ny; ++j) {
+    const std::ptrdiff_t row = s(0, j, k);
+    const real iyj = g.axis[1].idc[j];
+#pragma omp simd
+    for (int i = 1; i <= s.nx; ++i) {
+      const std::ptrdiff_t n = row + i;
+      out[n] = scale * ((u0[n + 1] - u0[n]) * ix[i] + (u1[n + s.sy] - u1[n]) * iyj + (u2[n + s.sz] - u2[n]) * izk);
+    }
+  }
+}
+
+// u_d = u*_d - alpha dt (phi[I] - phi[I-1]) / df_d on the lower faces of plane k's cells, and p += phi.
+FLAPSTAB_KERNEL void project_plane(const Grid& g, int k, const VectorField& ustar, const Field& phi, VectorField& u,
+                                   Field& p, real adt) {
+  const Shape& s = p.shape();
+  const real* __restrict f = phi.data();
+  const real* __restrict ix = g.axis[0].idf.data();
+  const real *__restrict s0 = ustar[0].data(), *__restrict s1 = ustar[1].data(), *__restrict s2 = ustar[2].data();
+  real *__restrict u0 = u[0].data(), *__restrict u1 = u[1].data(), *__restrict u2 = u[2].data();
+  real* __restrict q = p.data();
+  const real czk = adt * g.axis[2].idf[k];
+  for (int j = 1; j <= s.ny; ++j) {
+    const std::ptrdiff_t row = s(0, j, k);
+    const real cyj = adt * g.axis[1].idf[j];
+#pragma omp simd
+    for (int i = 1; i <= s.nx; ++i) {
+      const std::ptrdiff_t n = row + i;
+      u0[n] = s0[n] - adt * (f[n] - f[n - 1]) * ix[i];
+      u1[n] = s1[n] - cyj * (f[n] - f[n - s.sy]);
+      u2[n] = s2[n] - czk * (f[n] - f[n - s.sz]);
+      q[n] += f[n];
+    }
+  }
+}
+
+FLAPSTAB_KERNEL double max_rate_plane(const Grid& g, int k, const VectorField& u) {
+  const Shape s = g.shape();
+  const real* __restrict ix = g.axis[0].idc.data();
+  const real *__restrict u0 = u[0].data(), *__restrict u1 = u[1].data(), *__restrict u2 = u[2].data();
+  double m = 0;
+  for (int j = 1; j <= s.ny; ++j) {
+    const std::ptrdiff_t row = s(0, j, k);
+    const real iyj = g.axis[1].idc[j], izk = g.axis[2].idc[k];
+#pragma omp simd reduction(max : m)
+    for (int i = 1; i <= s.nx; ++i) {
+      const std::ptrdiff_t n = row + i;
+      const real r = std::max(std::abs(u0[n]), std::abs(u0[n + 1])) * ix[i] +
+                     std::max(std::abs(u1[n]), std::abs(u1[n + s.sy])) * iyj +
+                     std::max(std::abs(u2[n]), std::abs(u2[n + s.sz])) * izk;
+      m = std::max(m, double(r));
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
+void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& Nprev, VectorField& ustar, double nu,
+             double dt, const StageCoefficients& c) {
+  // All three components in one pass over the lower faces of every cell (u, v, w are read once); the values on
+  // boundary faces are overwritten by impose_normal_velocity.
+  const Shape& s = p.shape();
+  const PredictArgs a{{AxisView(g.axis[0]), AxisView(g.axis[1]), AxisView(g.axis[2])},
+                      {u[0].data(), u[1].data(), u[2].data()},
+                      p.data(),
+                      {Nprev[0].data(), Nprev[1].data(), Nprev[2].data()},
+                      {ustar[0].data(), ustar[1].data(), ustar[2].data()},
+                      real(nu), real(c.gamma * dt), real(c.zeta * dt), real(c.alpha() * dt)};
+#pragma omp parallel for schedule(static) if (threaded(s))
+  for (int k = 1; k <= s.nz; ++k) predict_plane(s, k, a);
+}
+
+void divergence(const Grid& g, const VectorField& u, Field& div, double scale) {
+#pragma omp parallel for schedule(static) if (threaded(div.shape()))
+  for (int k = 1; k <= div.shape().nz; ++k) divergence_plane(g, k, u, div, real(scale));
+}
+
+void project(const Grid& g, const VectorField& ustar, const Field& phi, VectorField& u, Field& p, double alpha_dt) {
+  const Shape& s = p.shape();
+#pragma omp parallel for schedule(static) if (threaded(s))
+  for (int k = 1; k <= s.nz; ++k) project_plane(g, k, ustar, phi, u, p, real(alpha_dt));
+  // The upper boundary faces (index n + 1) of non-periodic axes: prescribed (zero correction through a Neumann
+  // ghost) or outflow (corrected through the Dirichlet ghost).
+  for (int d = 0; d < 3; ++d) {
+    if (g.axis[d].periodic) continue;
+    const int b = (d + 1) % 3, c = (d + 2) % 3, n = s.n(d);
+    const std::ptrdiff_t sd = s.stride(d);
+    const real w = real(alpha_dt) * g.axis[d].idf[n + 1];
+    for (int kc = 1; kc <= s.n(c); ++kc)
+      for (int kb = 1; kb <= s.n(b); ++kb) {
+        const std::ptrdiff_t m = (n + 1) * sd + kb * s.stride(b) + kc * s.stride(c);
+        u[d][m] = ustar[d][m] - w * (phi[m] - phi[m - sd]);
+      }
+  }
+}
+
+double kinetic_energy(const Grid& g, const VectorField& u) {
+  double e = 0;
+  for (int d = 0; d < 3; ++d) {
+    const Axis &a0 = g.axis[0], &a1 = g.axis[1], &a2 = g.axis[2];
+    const real* ud = u[d].data();
+    double ed = 0;
+    const Shape s = g.shape();
+    int hi[3] = {s.nx, s.ny, s.nz};
+    if (!g.axis[d].periodic) ++hi[d];
+#pragma omp parallel for schedule(static) reduction(+ : ed) if (threaded(s))
+    for (int k = 1; k <= hi[2]; ++k)
+      for (int j = 1; j <= hi[1]; ++j)
+        for (int i = 1; i <= hi[0]; ++i) {
+          const double w = (d == 0 ? a0.dv[i] : a0.dc[i]) * (d == 1 ? a1.dv[j] : a1.dc[j]) * (d == 2 ? a2.dv[k] : a2.dc[k]);
+          const double v = ud[s(i, j, k)];
+          ed += 0.5 * w * v * v;
+        }
+    e += ed;
+  }
+  return e;
+}
+
+double max_divergence(const Grid& g, const VectorField& u) {
+  Field div(g.shape());
+  divergence(g, u, div, 1.0);
+  const Shape s = g.shape();
+  double m = 0;
+#pragma omp parallel for schedule(static) reduction(max : m) if (threaded(s))
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) m = std::max(m, std::abs(double(div(i, j, k))));
+  return m;
+}
+
+double max_rate(const Grid& g, const VectorField& u) {
+  double m = 0;
+#pragma omp parallel for schedule(static) reduction(max : m) if (threaded(g.shape()))
+  for (int k = 1; k <= g.shape().nz; ++k) m = std::max(m, max_rate_plane(g, k, u));
+  return m;
+}
+
+double max_viscous_rate(const Grid& g, double nu) {
+  double m[3];
+  for (int a = 0; a < 3; ++a) {
+    const double h = g.axis[a].min_width();
+    m[a] = 1 / (h * h);
+  }
+  return nu * (m[0] + m[1] + m[2]);
+}
+
+}  // namespace flapstab::ns

@@ -1,0 +1,33 @@
+// Discrete MAC operators of the fractional step: momentum predictor, divergence, projection, diagnostics.
+#pragma once
+#include "cfd/navier_stokes/boundary.hpp"
+#include "cfd/navier_stokes/field.hpp"
+#include "cfd/navier_stokes/grid.hpp"
+
+namespace flapstab::ns {
+
+// One low-storage Runge-Kutta stage u* = u + dt (gamma N(u) + zeta N_prev) - (gamma + zeta) dt G p,
+// N(u) = -div(u u) + nu lap(u) (flux form, central, linear interpolation in the coordinates).
+struct StageCoefficients {
+  double gamma = 1, zeta = 0;
+  double alpha() const { return gamma + zeta; }
+};
+
+// Predictor: ustar = u + dt (gamma N + zeta Nprev) - alpha dt G p on the faces; Nprev <- N.
+// u, p must have BC-consistent ghosts. Boundary faces of ustar are then set by impose_normal_velocity.
+void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& Nprev, VectorField& ustar, double nu,
+             double dt, const StageCoefficients& c);
+
+// div = scale * D u on the cells.
+void divergence(const Grid& g, const VectorField& u, Field& div, double scale);
+
+// u = ustar - alpha dt G phi on all faces (phi with BC ghosts), p += phi on the cells.
+void project(const Grid& g, const VectorField& ustar, const Field& phi, VectorField& u, Field& p, double alpha_dt);
+
+// Diagnostics.
+double kinetic_energy(const Grid& g, const VectorField& u);       // 1/2 sum over faces of u^2 times face volume
+double max_divergence(const Grid& g, const VectorField& u);       // max over cells of |D u|
+double max_rate(const Grid& g, const VectorField& u);             // max over cells of sum_a |u_a| / dx_a
+double max_viscous_rate(const Grid& g, double nu);                // max over cells of nu sum_a 1 / dx_a^2
+
+}  // namespace flapstab::ns

@@ -1,0 +1,101 @@
+// Flexible preconditioned conjugate gradients for the MAC pressure Poisson equation (see poisson.hpp).
+#include "cfd/navier_stokes/poisson.hpp"
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include "cfd/navier_stokes/krylov.hpp"
+
+namespace flapstab::ns {
+
+double PoissonStats::factor() const {
+  if (cycles == 0 || initial_residual == 0) return 0;
+  return std::pow(residual / initial_residual, 1.0 / cycles);
+}
+
+Poisson::Poisson(const Grid& g, const ScalarBCs& bc)
+    : L_(g, bc), mg_(g, bc), bc_(bc), z_(g.shape()), p_(g.shape()), q_(g.shape()) {
+  singular_ = std::none_of(bc.begin(), bc.end(), [](ScalarBC b) { return b == ScalarBC::dirichlet; });
+}
+
+std::size_t Poisson::bytes() const {
+  std::size_t b = 3 * L_.s.size() * sizeof(real);
+  for (int l = 0; l < mg_.levels(); ++l) b += 3 * mg_.level_shape(l).size() * sizeof(float);
+  return b;
+}
+
+// FCG(1) (Notay 2000, SIAM J Sci Comput 22:1444) in the volume-weighted inner product <u, w> = sum V u w, in
+// which L is self-adjoint: z = M(r); beta = -<z, q>/<p, q>; p = z + beta p; q = L p; alpha = <p, r>/<p, q>;
+// x += alpha p; r -= alpha q. The flexible form tolerates the V-cycle's slight asymmetry and single precision.
+PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool guess) {
+  const Shape& s = L_.s;
+  if (!(x.shape() == s) || !(b.shape() == s)) throw std::invalid_argument("poisson: field shape differs from the grid");
+  double sum, vol, bmax;
+  krylov::sum_and_max(L_, b.data(), sum, vol, bmax);
+  // A singular problem needs a b of zero mean; remove what round-off or inconsistent boundary data left.
+  if (singular_ && std::abs(sum / vol) > 1e-14 * bmax) {
+    krylov::add_constant(L_, b.data(), -sum / vol);
+    krylov::sum_and_max(L_, b.data(), sum, vol, bmax);
+  }
+  const double target = std::max(opt.rtol * bmax, opt.atol);
+  PoissonStats st;
+  st.residual = st.initial_residual = bmax;
+  Field& r = b;
+  if (guess) {  // r = b - L x
+    fill_ghosts(x, bc_);
+    st.residual = st.initial_residual = krylov::residual(L_, x.data(), r.data());
+  }
+  double pq = 1;
+  while (st.residual > target && st.cycles < opt.max_cycles) {
+    mg_.vcycle(r, z_, opt.pre_sweeps, opt.post_sweeps);
+    if (st.cycles == 0)
+      std::swap(p_, z_);
+    else
+      krylov::axpy_into(L_, z_.data(), -krylov::inner(L_, z_.data(), q_.data()) / pq, p_.data());
+    fill_ghosts(p_, bc_);
+    double pr;
+    krylov::apply_and_dot(L_, p_.data(), q_.data(), r.data(), pq, pr);
+    st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), pr / pq, st.cycles == 0 && !guess);
+    ++st.cycles;
+  }
+  if (st.cycles == 0 && !guess) x.fill(0);
+  st.converged = st.residual <= target;
+  fill_ghosts(x, bc_);
+  return st;
+}
+
+void Poisson::apply(Field& x, Field& Lx) const {
+  const Shape& s = L_.s;
+  if (!(x.shape() == s) || !(Lx.shape() == s)) throw std::invalid_argument("poisson: field shape differs from the grid");
+  fill_ghosts(x, bc_);
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j) {
+      const StencilRow<real> r(L_, x.data(), j, k);
+      for (int i = 1; i <= s.nx; ++i) Lx(i, j, k) = r.apply(i);
+    }
+}
+
+double Poisson::residual_norm(Field& x, const Field& b) const {
+  Field Lx(x.shape());
+  apply(x, Lx);
+  double m = 0;
+  const Shape& s = x.shape();
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) m = std::max(m, std::abs(b(i, j, k) - Lx(i, j, k)));
+  return m;
+}
+
+double mean(const Grid& g, const Field& f) {
+  double sum = 0, vol = 0;
+  const Shape s = g.shape();
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        const double v = g.volume(i, j, k);
+        sum += v * f(i, j, k);
+        vol += v;
+      }
+  return sum / vol;
+}
+
+}  // namespace flapstab::ns

@@ -1,0 +1,54 @@
+// Pressure Poisson equation L x = b (L = D G, the MAC divergence of the MAC gradient): conjugate gradients
+// preconditioned by a geometric multigrid V-cycle.
+#pragma once
+#include "cfd/navier_stokes/multigrid.hpp"
+
+namespace flapstab::ns {
+
+struct PoissonOptions {
+  double rtol = 1e-6;   // stop when max|b - Lx| <= max(rtol * max|b|, atol)
+  double atol = 0;
+  int max_cycles = 30;  // conjugate-gradient iterations (one V-cycle each)
+  int pre_sweeps = 2;   // red-black Gauss-Seidel sweeps before and after the coarse-grid correction
+  int post_sweeps = 2;
+};
+
+struct PoissonStats {
+  int cycles = 0;                // iterations (V-cycles)
+  double initial_residual = 0;   // max-norm, after removing the null space from b
+  double residual = 0;
+  bool converged = false;
+  double factor() const;         // mean residual reduction per iteration
+};
+
+// Flexible conjugate gradients in double precision, preconditioned by one single-precision V-cycle per
+// iteration (multigrid.hpp); the Krylov acceleration keeps the rate where stretched cells slow the point
+// smoother down. Periodic and Neumann faces everywhere make L singular: b's volume-weighted mean is removed.
+class Poisson {
+ public:
+  Poisson(const Grid& g, const ScalarBCs& bc);
+
+  // x = L^-1 b to the residual tolerance (relative to b), from x = 0 or, with `guess`, from x's value on entry
+  // (the previous time step's pressure increment of the same stage saves one or two iterations). Singular L: x
+  // is defined up to a constant. b is overwritten (by the residual). On return x's ghosts hold the boundary
+  // conditions, ready for the gradient.
+  PoissonStats solve(Field& x, Field& b, const PoissonOptions& opt, bool guess = false);
+  // Lx = L x on the cells (x's ghosts are filled first).
+  void apply(Field& x, Field& Lx) const;
+  double residual_norm(Field& x, const Field& b) const;  // max over cells of |b - L x|
+  bool singular() const { return singular_; }
+  const Multigrid& multigrid() const { return mg_; }
+  std::size_t bytes() const;  // memory held (Krylov vectors and multigrid levels)
+
+ private:
+  Stencil<real> L_;
+  Multigrid mg_;
+  ScalarBCs bc_;
+  bool singular_;
+  Field z_, p_, q_;  // preconditioned residual, search direction, L p
+};
+
+// Volume-weighted mean of a cell field.
+double mean(const Grid& g, const Field& f);
+
+}  // namespace flapstab::ns

@@ -1,0 +1,123 @@
+// The time step: three Runge-Kutta stages, each a predictor, a pressure Poisson solve and a projection.
+#include "cfd/navier_stokes/solver.hpp"
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace flapstab::ns {
+
+namespace {
+
+// Low-storage RK3 (Wray 1990; Spalart, Moser & Rogers 1991, J Comput Phys 96:297): stage k advances by
+// dt (gamma_k N_k + zeta_k N_{k-1}); the stages end at t + dt (8/15, 2/3, 1).
+constexpr StageCoefficients rk3[3] = {{8.0 / 15.0, 0.0}, {5.0 / 12.0, -17.0 / 60.0}, {3.0 / 4.0, -5.0 / 12.0}};
+constexpr double rk3_end[3] = {8.0 / 15.0, 2.0 / 3.0, 1.0};
+
+}  // namespace
+
+Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
+    : grid_(std::move(grid)), bc_(std::move(bc)), pbc_(bc_.pressure()), opt_(opt), poisson_(grid_, pbc_),
+      u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()), p_(grid_.shape()), div_(grid_.shape()),
+      phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
+  bc_.check(grid_);
+  if (!(opt_.nu >= 0)) throw std::invalid_argument("navier_stokes solver: viscosity nu must be >= 0");
+  if (!(opt_.cfl > 0) || !(opt_.diffusion > 0)) throw std::invalid_argument("navier_stokes solver: cfl and diffusion limits must be > 0");
+  if (opt_.cfl > std::sqrt(3.0) || opt_.diffusion > 0.63)
+    throw std::invalid_argument("navier_stokes solver: cfl <= sqrt(3) and diffusion <= 0.63 (RK3 stability), got cfl " +
+                                std::to_string(opt_.cfl) + ", diffusion " + std::to_string(opt_.diffusion));
+}
+
+void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, double t0,
+                        const std::function<double(double, double, double)>& p0) {
+  const Shape s = grid_.shape();
+  for (int d = 0; d < 3; ++d)
+    for (int k = 0; k <= s.nz + 1; ++k)
+      for (int j = 0; j <= s.ny + 1; ++j)
+        for (int i = 0; i <= s.nx + 1; ++i) {
+          const auto x = grid_.point(d, i, j, k);
+          ustar_[d](i, j, k) = u0(x[0], x[1], x[2])[d];
+        }
+  p_.fill(0);
+  if (p0)
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const auto x = grid_.centre(i, j, k);
+          p_(i, j, k) = p0(x[0], x[1], x[2]);
+        }
+  fill_ghosts(p_, pbc_);
+  t_ = t0;
+  impose_normal_velocity(ustar_, bc_, t_);
+  divergence(grid_, ustar_, div_, 1.0);
+  PoissonOptions popt = opt_.poisson;
+  popt.rtol = std::min(popt.rtol, 1e-10);
+  poisson_.solve(phi_[0], div_, popt);
+  Field discard(grid_.shape());
+  project(grid_, ustar_, phi_[0], u_, discard, 1.0);
+  guess_ = false;
+  fill_velocity_ghosts(u_, bc_, t_);
+  for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
+}
+
+double Solver::stable_dt() const { return time_step(max_rate(grid_, u_)); }
+
+// conv: max over cells of sum_a |u_a| / dx_a.
+double Solver::time_step(double conv) const {
+  const double visc = max_viscous_rate(grid_, opt_.nu);
+  if (opt_.dt > 0) {
+    // A fixed step beyond RK3's stability region blows up within a few steps: say so now instead.
+    if (opt_.dt * visc > 0.63 || opt_.dt * conv > std::sqrt(3.0))
+      throw std::runtime_error("navier_stokes solver: fixed dt = " + std::to_string(opt_.dt) +
+                               " is unstable (RK3 needs CFL <= 1.73 and diffusion number <= 0.63; CFL " +
+                               std::to_string(opt_.dt * conv) + ", diffusion number " + std::to_string(opt_.dt * visc) +
+                               "); reduce dt to " + std::to_string(std::min(opt_.cfl / conv, opt_.diffusion / visc)));
+    return opt_.dt;
+  }
+  double dt = opt_.dt_max;
+  if (conv > 0) dt = std::min(dt, opt_.cfl / conv);
+  if (visc > 0) dt = std::min(dt, opt_.diffusion / visc);
+  if (!std::isfinite(dt) || !(dt > 0))
+    throw std::runtime_error("navier_stokes solver: no finite stable time step (flow at rest and nu = 0: set dt or dt_max)");
+  return dt;
+}
+
+// Predict, impose the box (then body) velocity, project with (alpha dt), refresh ghosts: on return u is
+// discretely divergence-free to the Poisson tolerance and BC-consistent at t_stage, ready for the next stage.
+void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
+  const double adt = c.alpha() * dt;
+  predict(grid_, u_, p_, rhs_u_, ustar_, opt_.nu, dt, c);
+  impose_normal_velocity(ustar_, bc_, t_stage);
+  if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
+  divergence(grid_, ustar_, div_, 1.0 / adt);
+  // Besides the relative tolerance, stop at a divergence of 1e-12 of the velocity-gradient scale: no round-off chase.
+  PoissonOptions popt = opt_.poisson;
+  popt.atol = std::max(popt.atol, 1e-12 * rate_ / adt);
+  Field& phi = phi_[stage_];
+  stats_.push_back(poisson_.solve(phi, div_, popt, guess_));
+  project(grid_, ustar_, phi, u_, p_, adt);
+  fill_ghosts(p_, pbc_);
+  fill_velocity_ghosts(u_, bc_, t_stage);
+  if (hooks_) hooks_->after_projection(u_, p_, t_stage);
+}
+
+double Solver::step() {
+  const double conv = max_rate(grid_, u_);
+  const double dt = time_step(conv);
+  rate_ = std::max(conv, max_viscous_rate(grid_, opt_.nu));
+  stats_.clear();
+  for (stage_ = 0; stage_ < 3; ++stage_) stage(dt, rk3[stage_], t_ + rk3_end[stage_] * dt);
+  guess_ = true;
+  t_ += dt;
+  if (!std::isfinite(p_(1, 1, 1)) || !std::isfinite(u_[0](1, 1, 1)))
+    throw std::runtime_error("navier_stokes solver: the solution is not finite at t = " + std::to_string(t_) +
+                             " (time step too large? CFL was " + std::to_string(cfl(dt)) + ")");
+  return dt;
+}
+
+std::size_t Solver::bytes() const {
+  // u, u*, N_prev, phi (3 each), p, div, and the Poisson solver's vectors and levels.
+  return 14 * grid_.shape().size() * sizeof(real) + poisson_.bytes() + flags_.size() * sizeof(CellFlag);
+}
+
+}  // namespace flapstab::ns

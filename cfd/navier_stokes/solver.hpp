@@ -1,0 +1,89 @@
+// Incompressible Navier-Stokes on a non-uniform staggered grid: fractional step, low-storage RK3, multigrid projection.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <vector>
+#include "cfd/navier_stokes/boundary.hpp"
+#include "cfd/navier_stokes/operators.hpp"
+#include "cfd/navier_stokes/poisson.hpp"
+
+namespace flapstab::ns {
+
+struct SolverOptions {
+  double nu = 0;           // kinematic viscosity (m^2/s, or 1/Re in scaled units)
+  double cfl = 1.0;        // adaptive step: dt max(sum_a |u_a|/dx_a) <= cfl (RK3 with central fluxes: stable to sqrt 3)
+  double diffusion = 0.5;  // adaptive step: dt nu sum_a 1/dx_a^2 <= diffusion (RK3: stable to 0.63)
+  double dt = 0;           // > 0: fixed step (e.g. a whole number of steps per wingbeat) instead of the adaptive one
+  double dt_max = std::numeric_limits<double>::infinity();  // cap of the adaptive step
+  PoissonOptions poisson{.rtol = 1e-3};  // each projection removes all but 1e-3 of the predictor's divergence
+};
+
+// Per-cell state for an immersed boundary (all cells fluid until a body is immersed).
+enum class CellFlag : std::uint8_t { fluid = 0, solid = 1, ghost = 2 };
+
+// Where an immersed-boundary method plugs into each Runge-Kutta stage. Hooks run once per stage and sweep their
+// own cells (no per-cell virtual calls).
+class StageHooks {
+ public:
+  virtual ~StageHooks() = default;
+  // ustar: predicted velocity with the box conditions at stage time t, before projection. Impose the body
+  // velocity here (direct forcing / ghost-cell values at flagged cells).
+  virtual void after_predictor(VectorField& ustar, double t, double alpha_dt) = 0;
+  // u, p: projected velocity and updated pressure at stage time t with box ghosts filled; ghost-cell values for
+  // the next stage's stencils and surface forces go here.
+  virtual void after_projection(VectorField& u, Field& p, double t) = 0;
+};
+
+class Solver {
+ public:
+  Solver(Grid grid, Boundaries bc, SolverOptions opt);
+
+  // Samples u0 (and p0) at the faces (cell centres) at time t0, imposes the boundary conditions and projects
+  // u onto the discretely divergence-free fields.
+  void initialise(const std::function<Vec3(double x, double y, double z)>& u0, double t0 = 0,
+                  const std::function<double(double x, double y, double z)>& p0 = {});
+
+  // One time step (three RK3 stages, one projection each); returns the dt used.
+  double step();
+
+  double time() const { return t_; }
+  double stable_dt() const;  // the step the next step() takes: adaptive, or the fixed one (checked for stability)
+  double kinetic_energy() const { return ns::kinetic_energy(grid_, u_); }
+  double max_divergence() const { return ns::max_divergence(grid_, u_); }
+  double cfl(double dt) const { return dt * max_rate(grid_, u_); }
+  double diffusion_number(double dt) const { return dt * max_viscous_rate(grid_, opt_.nu); }
+  // Poisson statistics of the last step's projections (one per stage).
+  const std::vector<PoissonStats>& poisson_stats() const { return stats_; }
+  std::size_t bytes() const;  // memory held by the solver
+
+  const Grid& grid() const { return grid_; }
+  const Boundaries& boundaries() const { return bc_; }
+  const SolverOptions& options() const { return opt_; }
+  const VectorField& velocity() const { return u_; }
+  const Field& pressure() const { return p_; }
+  std::vector<CellFlag>& flags() { return flags_; }
+  void attach(StageHooks* hooks) { hooks_ = hooks; }
+
+ private:
+  void stage(double dt, const StageCoefficients& c, double t_stage);
+  double time_step(double conv) const;
+
+  Grid grid_;
+  Boundaries bc_;
+  ScalarBCs pbc_;
+  SolverOptions opt_;
+  Poisson poisson_;
+  VectorField u_, ustar_, rhs_u_;  // velocity, predicted velocity, previous stage's momentum right-hand side
+  Field p_, div_;                   // pressure, Poisson right-hand side
+  VectorField phi_;                 // pressure increment of each stage (next step's initial guess)
+  std::vector<CellFlag> flags_;
+  StageHooks* hooks_ = nullptr;
+  std::vector<PoissonStats> stats_;
+  double t_ = 0;
+  double rate_ = 0;
+  int stage_ = 0;
+  bool guess_ = false;  // phi_ holds the previous step's increments  // velocity-gradient scale of the current step (1/s), for the Poisson round-off floor
+};
+
+}  // namespace flapstab::ns
