@@ -115,6 +115,23 @@ double Solver::step() {
   return dt;
 }
 
+void Solver::restore(double t, const VectorField& u, const Field& p, const VectorField& phi, bool guess) {
+  const Shape s = grid_.shape();
+  for (int d = 0; d < 3; ++d)
+    if (!(u[d].shape() == s) || !(phi[d].shape() == s))
+      throw std::invalid_argument("navier_stokes solver: restored fields do not match the grid");
+  if (!(p.shape() == s)) throw std::invalid_argument("navier_stokes solver: restored pressure does not match the grid");
+  u_ = u;
+  p_ = p;
+  phi_ = phi;
+  guess_ = guess;
+  t_ = t;
+  for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);  // the first RK3 stage does not read it (zeta_1 = 0)
+  fill_ghosts(p_, pbc_);
+  fill_velocity_ghosts(u_, bc_, t_);
+  if (hooks_) hooks_->after_projection(u_, p_, t_);
+}
+
 std::size_t Solver::bytes() const {
   // u, u*, N_prev, phi (3 each), p, div, and the Poisson solver's vectors and levels.
   return 14 * grid_.shape().size() * sizeof(real) + poisson_.bytes() + flags_.size() * sizeof(CellFlag);

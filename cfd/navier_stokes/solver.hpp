@@ -65,6 +65,13 @@ class Solver {
   std::vector<CellFlag>& flags() { return flags_; }
   void attach(StageHooks* hooks) { hooks_ = hooks; }
 
+  // Exact checkpoint/restart: a step depends on t, u, p and the previous step's pressure increments (the
+  // Poisson initial guesses); restoring them reproduces the run bit for bit. restore() refills the box
+  // ghosts and runs the attached hooks' after_projection at t, as the step that wrote them did.
+  const VectorField& pressure_increments() const { return phi_; }
+  bool has_guess() const { return guess_; }
+  void restore(double t, const VectorField& u, const Field& p, const VectorField& phi, bool guess);
+
  private:
   void stage(double dt, const StageCoefficients& c, double t_stage);
   double time_step(double conv) const;
