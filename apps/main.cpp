@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "apps/cfd_command.hpp"
 #include "apps/commands.hpp"
 #include "apps/floquet_command.hpp"
 #include "core/errors.hpp"
@@ -49,11 +50,28 @@ int main(int argc, char** argv) {
   an->add_option("case", o.case_path, "case file (TOML)")->required()->check(CLI::ExistingFile);
   an->add_option("-o,--output", o.output_dir, "output directory (default: the case's [output] directory)");
   an->add_flag("-q,--quiet", o.quiet, "print nothing on success");
+  flapstab::CfdCommandOptions co;
+  CLI::App* cfd = app.add_subcommand(
+      "cfd", "Navier-Stokes immersed-boundary run of the case's insect ([aero.cfd] settings): prints the grid, memory "
+             "and a time estimate, then writes forces.csv, run.json, fields/, surfaces/ and checkpoints/ into DIR "
+             "(docs/cfd-files.md). Exit status 2 for bad input (nothing written), 3 if the run diverges (the last "
+             "checkpoint is kept)");
+  cfd->add_option("case", co.case_path, "case file (TOML) with an [aero.cfd] table; see docs/case-file.md")
+      ->required()->check(CLI::ExistingFile);
+  cfd->add_option("-o,--output", co.output_dir, "output directory (default: the case's [output] directory)");
+  cfd->add_flag("--restart", co.restart, "resume from the newest valid checkpoint in the output directory (refused if "
+                                         "the case file changed); reproduces the uninterrupted run exactly");
+  cfd->add_option("--cycles", co.cycles, "wingbeats to run in all (overrides [aero.cfd] cycles)")
+      ->check(CLI::Range(1, 100000));
+  cfd->add_flag("--dry-run", co.dry_run, "build the grid, run the checks, time two steps and print the estimate; "
+                                         "write nothing");
+  cfd->add_flag("-q,--quiet", co.quiet, "no estimate or progress lines");
   CLI11_PARSE(app, argc, argv);
   try {
     if (trim->parsed()) return flapstab::run_trim_hover(o);
     if (der->parsed()) return flapstab::run_derivatives(o);
     if (an->parsed()) return flapstab::run_analyze(o);
+    if (cfd->parsed()) return flapstab::run_cfd_command(co);
     if (floq->parsed()) return flapstab::run_floquet(o);
     if (stab->parsed()) {
       if (o.case_path.empty() == o.derivatives_path.empty()) {

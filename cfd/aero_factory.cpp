@@ -1,5 +1,6 @@
 // Builds the aerodynamic model a case file asks for.
 #include "cfd/aero_factory.hpp"
+#include "cfd/navier_stokes/run.hpp"
 #include "cfd/quasi_steady/quasi_steady.hpp"
 #include "core/errors.hpp"
 
@@ -17,8 +18,8 @@ std::unique_ptr<AeroModel> make_aero_model(const Case& c) {
     o.samples_per_cycle = c.aero.quasi_steady.samples_per_cycle;
     return std::make_unique<QuasiSteadyModel>(o);
   }
-  throw InputError(c.path, "aero.model", "the Navier-Stokes CFD model is not available in this version",
-                   "\"quasi-steady\"");
+  if (c.aero.model == "cfd") return std::make_unique<ns::CfdModel>(c);
+  throw InputError(c.path, "aero.model", "unknown model \"" + c.aero.model + "\"", "\"quasi-steady\" or \"cfd\"");
 }
 
 }  // namespace flapstab

@@ -289,6 +289,54 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   return k;
 }
 
+CfdSettings parse_cfd(Section s) {
+  CfdSettings d;
+  auto margin = [&](const char* k, double dflt) {
+    const double v = s.number_or(k, dflt, "a margin >= 0 in wing lengths R");
+    if (!(v >= 0) || v > 100) s.fail(k, fmt::format("out of range: {}", v), "a margin in [0, 100] wing lengths R");
+    return v;
+  };
+  d.upstream_R = margin("upstream_R", d.upstream_R);
+  d.downstream_R = margin("downstream_R", d.downstream_R);
+  d.lateral_R = margin("lateral_R", d.lateral_R);
+  d.above_R = margin("above_R", d.above_R);
+  d.below_R = margin("below_R", d.below_R);
+  d.fine_margin_R = margin("fine_margin_R", d.fine_margin_R);
+  if (s.has("cells_per_chord") && s.has("cells_per_wing_length"))
+    s.fail("cells_per_wing_length", "given together with 'cells_per_chord'", "one of the two");
+  auto resolution = [&](const char* k, double dflt) {
+    const double v = s.number_or(k, dflt, "a number of cells in [1, 10000]");
+    if (!(v >= 1) || v > 10000) s.fail(k, fmt::format("out of range: {}", v), "a number of cells in [1, 10000]");
+    return v;
+  };
+  d.cells_per_chord = resolution("cells_per_chord", d.cells_per_chord);
+  if (s.has("cells_per_wing_length")) d.cells_per_wing_length = resolution("cells_per_wing_length", 0);
+  d.stretch_ratio = s.number_or("stretch_ratio", d.stretch_ratio, "a ratio in [1, 1.1]");
+  if (!(d.stretch_ratio >= 1 && d.stretch_ratio <= 1.1))
+    s.fail("stretch_ratio", fmt::format("out of range: {}", d.stretch_ratio),
+           "a ratio in [1, 1.1] (multigrid degrades beyond about 1.08)");
+  if (s.has("reynolds")) {
+    d.reynolds = s.positive("reynolds", "(U_ref L_ref / nu, U_ref = 2 Phi f R, L_ref = mean chord)");
+    if (d.reynolds > 1e7) s.fail("reynolds", fmt::format("out of range: {}", d.reynolds), "a Reynolds number in (0, 1e7]");
+  }
+  d.cycles = s.integer_or("cycles", d.cycles, 1, 100000);
+  if (s.has("steps_per_cycle") && s.has("cfl"))
+    s.fail("cfl", "given together with 'steps_per_cycle'", "either a fixed step (steps_per_cycle) or a CFL number");
+  d.steps_per_cycle = s.integer_or("steps_per_cycle", d.steps_per_cycle, 1, 100000000);
+  d.cfl = s.number_or("cfl", d.cfl, "a CFL number in (0, 1.7]");
+  if (!(d.cfl > 0 && d.cfl <= 1.7)) s.fail("cfl", fmt::format("out of range: {}", d.cfl), "a CFL number in (0, 1.7]");
+  d.fields_per_cycle = s.integer_or("fields_per_cycle", d.fields_per_cycle, 0, 100000);
+  d.surfaces_per_cycle = s.integer_or("surfaces_per_cycle", d.surfaces_per_cycle, 0, 100000);
+  d.checkpoints_per_cycle = s.integer_or("checkpoints_per_cycle", d.checkpoints_per_cycle, 0, 100000);
+  d.field_precision = s.string("field_precision", false, d.field_precision, {"float64", "float32"});
+  d.body_divisions = s.integer_or("body_divisions", d.body_divisions, 2, 1000);
+  d.wing_span_stations = s.integer_or("wing_span_stations", d.wing_span_stations, 2, 10000);
+  d.wing_chord_divisions = s.integer_or("wing_chord_divisions", d.wing_chord_divisions, 1, 10000);
+  d.threads = s.integer_or("threads", d.threads, 0, 4096);
+  s.reject_unknown();
+  return d;
+}
+
 }  // namespace
 
 std::string TrimParameterSpec::label() const {
@@ -348,7 +396,8 @@ Case load_case(const std::string& path) {
   q.added_mass = qs.boolean_or("added_mass", true);
   q.samples_per_cycle = qs.integer_or("samples_per_cycle", 128, 8, 1000000);
   qs.reject_unknown();
-  aero.reject_unknown({"cfd"});  // [aero.cfd] belongs to the CFD solver's own parser
+  c.aero.cfd = parse_cfd(aero.sub("cfd", false));
+  aero.reject_unknown();
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});

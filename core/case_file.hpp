@@ -21,9 +21,37 @@ struct QuasiSteadySettings {
   int samples_per_cycle = 128;
 };
 
+// [aero.cfd]: the Navier-Stokes immersed-boundary run (cfd/navier_stokes/run.hpp, docs/case-file.md).
+// Lengths are in wing lengths R; the grid lives in stability axes S with its origin at O.
+struct CfdSettings {
+  // Domain: distance from the fine box to each face of the computational box (x forward, y right, z down).
+  double upstream_R = 3.0;    // ahead of the insect (+x)
+  double downstream_R = 3.0;  // behind (-x)
+  double lateral_R = 3.0;     // to each side (+-y)
+  double above_R = 3.0;       // above (-z)
+  double below_R = 5.0;       // below (+z), where the downwash leaves through the outflow face
+  double fine_margin_R = 0.1; // uniform fine box = swept volume of body and wings over the run + this margin
+  double cells_per_chord = 16;      // fine spacing h = mean chord / this ...
+  double cells_per_wing_length = 0; // ... or, when > 0, h = R / this (the two are exclusive)
+  double stretch_ratio = 1.05;      // geometric growth of the cell widths outside the fine box
+  double reynolds = 0;              // > 0: viscosity set to U_ref L_ref / Re (U_ref = 2 Phi f R, L_ref = mean chord)
+  int cycles = 1;                   // wingbeats run
+  int steps_per_cycle = 0;          // > 0: fixed dt = T / steps_per_cycle (phase-locked); 0: adaptive from cfl
+  double cfl = 0.5;                 // adaptive step's CFL number
+  int fields_per_cycle = 4;         // flow-field outputs per wingbeat (0: none)
+  int surfaces_per_cycle = 8;       // surface outputs per wingbeat (0: none)
+  int checkpoints_per_cycle = 1;    // checkpoints per wingbeat (0: only at the end)
+  std::string field_precision = "float32";  // "float64" | "float32"
+  int body_divisions = 16;          // body mesh: cube-sphere divisions per face edge (12 n^2 triangles)
+  int wing_span_stations = 40;      // wing mesh: spanwise stations
+  int wing_chord_divisions = 10;    // wing mesh: chordwise divisions
+  int threads = 0;                  // OpenMP threads (0: the OpenMP default)
+};
+
 struct AeroSettings {
   std::string model = "quasi-steady";    // "quasi-steady" | "cfd"
   QuasiSteadySettings quasi_steady;
+  CfdSettings cfd;
 };
 
 enum class ParameterSide { both, right, left };

@@ -1,4 +1,4 @@
-// Tests for cfd/aero_factory: the case's [aero] selects the model; an unavailable model is an input error.
+// Tests for cfd/aero_factory: the case's [aero] selects the model; an unknown model is an input error.
 #include <gtest/gtest.h>
 #include "cfd/aero_factory.hpp"
 #include "common/case_text.hpp"
@@ -15,9 +15,17 @@ TEST(AeroFactory, SelectsTheQuasiSteadyCoefficientSet) {
   EXPECT_TRUE(make_aero_model(c)->is_instantaneous());
 }
 
-TEST(AeroFactory, CfdIsNotYetAvailableAndSaysSo) {
+TEST(AeroFactory, SelectsTheNavierStokesModel) {
   Case c = load_case(testing::write_temp("f2.toml", testing::valid_case_text()));
   c.aero.model = "cfd";
+  const auto m = make_aero_model(c);
+  EXPECT_EQ(m->name(), "navier-stokes-ib");
+  EXPECT_FALSE(m->is_instantaneous());
+}
+
+TEST(AeroFactory, UnknownModelIsAnInputError) {
+  Case c = load_case(testing::write_temp("f3.toml", testing::valid_case_text()));
+  c.aero.model = "panel";
   try {
     make_aero_model(c);
     FAIL();

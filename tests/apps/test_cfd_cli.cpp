@@ -1,0 +1,89 @@
+// End-to-end tests of `flapstab cfd`: bad input exits with status 2 and writes nothing.
+#include <gtest/gtest.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include "common/case_text.hpp"
+
+namespace flapstab {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::replace;
+using testing::valid_case_text;
+using testing::write_temp;
+
+struct CfdRunOutput {
+  int status;
+  std::string out, err;
+};
+
+CfdRunOutput flapstab_cfd(const std::string& args) {
+  const std::string errfile = write_temp("cfd_stderr.txt", ""), outfile = write_temp("cfd_stdout.txt", "");
+  const std::string cmd = std::string(FLAPSTAB_BINARY) + " cfd " + args + " > " + outfile + " 2> " + errfile;
+  const int rc = std::system(cmd.c_str());
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(outfile), slurp(errfile)};
+}
+
+std::string with_cfd(const std::string& keys) {
+  return replace(replace(valid_case_text(), "model = \"quasi-steady\"", "model = \"cfd\""), "[trim]\n",
+                 "[aero.cfd]\n" + keys + "\n[trim]\n");
+}
+
+struct Bad {
+  const char* label;
+  const char* keys;
+  const char* key;
+};
+
+class CfdCliBadInput : public ::testing::TestWithParam<Bad> {};
+
+TEST_P(CfdCliBadInput, ExitsWithTwoAndWritesNothing) {
+  const Bad b = GetParam();
+  const std::string path = write_temp(std::string("cfdcli_") + b.label + ".toml", with_cfd(b.keys));
+  const fs::path dir = fs::path(path).parent_path() / (std::string("cfdcli_dir_") + b.label);
+  fs::remove_all(dir);
+  for (const char* extra : {"", " --dry-run", " --restart"}) {
+    const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + extra);
+    EXPECT_EQ(r.status, 2) << b.label << extra << ": " << r.err;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(b.key), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir)) << b.label << extra;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Inputs, CfdCliBadInput,
+    ::testing::Values(Bad{"unknown_key", "cells_per_cord = 8", "aero.cfd.cells_per_cord"},
+                      Bad{"bad_type", "cycles = \"two\"", "aero.cfd.cycles"},
+                      Bad{"out_of_range", "stretch_ratio = 1.5", "aero.cfd.stretch_ratio"},
+                      Bad{"under_resolved", "cells_per_chord = 2", "aero.cfd.cells_per_chord"},
+                      Bad{"outside_domain", "fine_margin_R = 0\nabove_R = 0", "aero.cfd.above_R"}),
+    [](const ::testing::TestParamInfo<Bad>& i) { return std::string(i.param.label); });
+
+TEST(CfdCli, RestartWithoutCheckpointsIsBadInput) {
+  const std::string path = write_temp("cfdcli_restart.toml", with_cfd("cells_per_chord = 4"));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_restart_dir";
+  fs::remove_all(dir);
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + " --restart");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("--restart"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir));
+}
+
+TEST(CfdCli, HelpDescribesTheOptions) {
+  const CfdRunOutput r = flapstab_cfd("--help");
+  EXPECT_EQ(r.status, 0);
+  for (const char* k : {"--restart", "--cycles", "--dry-run", "-o,--output", "forces.csv"})
+    EXPECT_NE(r.out.find(k), std::string::npos) << k << "\n" << r.out;
+}
+
+}  // namespace
+}  // namespace flapstab

@@ -1,0 +1,303 @@
+// Tests for cfd/navier_stokes/run: the plan (grid around the swept volume, checks), forces.csv, checkpoints and
+// exact restart, divergence handling.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <cstring>
+#include <sstream>
+
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/run.hpp"
+#include "common/case_text.hpp"
+#include "core/configuration.hpp"
+#include "cfd/navier_stokes/geometry.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::ns {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The test moth with an [aero.cfd] table (inserted before [trim]).
+std::string cfd_case_text(const std::string& cfd_keys) {
+  return testing::replace(testing::valid_case_text(), "[trim]\n", "[aero.cfd]\n" + cfd_keys + "\n[trim]\n");
+}
+
+Case cfd_case(const std::string& name, const std::string& cfd_keys) {
+  return load_case(testing::write_temp(name, cfd_case_text(cfd_keys)));
+}
+
+// A tiny grid: 4 cells per mean chord, no far field beyond a fine box 0.4 R around the swept volume.
+const char* tiny_keys =
+    "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
+    "below_R = 0\nsteps_per_cycle = 60\nfields_per_cycle = 3\nsurfaces_per_cycle = 0\ncheckpoints_per_cycle = 6\n"
+    "threads = 1\n";
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string fresh_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("flapstab_run_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  return d.string();
+}
+
+Vec3 swirl(double x, double y, double z) {
+  const double k = 40.0;  // 1/m
+  return Vec3(0.5 * std::sin(k * z), 0.5 * std::cos(k * x), 0.3 * std::sin(k * y));
+}
+
+TEST(CfdPlan, GridHoldsTheSweptVolumeAtTheRequestedSpacing) {
+  const Case c = cfd_case("plan.toml", "cells_per_chord = 10\nstretch_ratio = 1.06\nbelow_R = 2\n");
+  const CfdPlan p = plan_cfd(c, c.kinematics, BodyMotion{});
+  // Every wing and body vertex over a wingbeat lies inside the swept box, which lies inside the fine box.
+  const Configuration config(c.insect, c.kinematics);
+  const InsectSurfaces surf(config, MeshResolution{16, 40, 10});
+  for (int k = 0; k < 20; ++k)
+    for (const auto& part : surf.at(c.kinematics.period() * (k + 0.37) / 20))
+      for (const Vec3& v : part.mesh.vertices)
+        for (int d = 0; d < 3; ++d) {
+          EXPECT_GE(v[d], p.fine_lo[d]);
+          EXPECT_LE(v[d], p.fine_hi[d]);
+        }
+  const double R = c.insect.wing.length, h = c.insect.wing.mean_chord / 10;
+  EXPECT_DOUBLE_EQ(p.h, h);
+  EXPECT_LE(p.h_actual, h * (1 + 1e-12));
+  EXPECT_GT(p.h_actual, 0.85 * h);
+  EXPECT_NEAR(p.chord_cells, c.insect.wing.mean_chord / p.h_actual, 1e-12);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_NEAR(p.fine_lo[d], p.swept_lo[d] - 0.1 * R, 1e-12);
+    EXPECT_NEAR(p.fine_hi[d], p.swept_hi[d] + 0.1 * R, 1e-12);
+    const Axis a = Axis::stretched(p.axes[std::size_t(d)], false);
+    EXPECT_LE(a.max_ratio(), 1.06 * (1 + 1e-9));
+    EXPECT_EQ(a.n % 8, 0);
+    EXPECT_DOUBLE_EQ(a.lo, p.domain_lo[d]);
+    EXPECT_DOUBLE_EQ(a.hi, p.domain_hi[d]);
+  }
+  EXPECT_NEAR(p.domain_hi.z() - p.fine_hi.z(), 2 * R, 1e-12);  // below_R
+  EXPECT_NEAR(p.fine_lo.z() - p.domain_lo.z(), 3 * R, 1e-12);  // above_R default
+  // The body's mean centre is O: the swept box straddles the origin.
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_LT(p.swept_lo[d], 0.0);
+    EXPECT_GT(p.swept_hi[d], 0.0);
+  }
+  // Reynolds number from the fluid's viscosity: U_ref = 2 Phi f R, L_ref = mean chord.
+  const double U = 2 * c.kinematics.stroke_amplitude() * c.kinematics.frequency_hz * R;
+  EXPECT_NEAR(p.reynolds, U * c.insect.wing.mean_chord / c.fluid.kinematic_viscosity, 1e-9 * p.reynolds);
+  EXPECT_TRUE(p.warnings.empty());
+}
+
+TEST(CfdPlan, ReynoldsOverridesTheViscosity) {
+  const Case c = cfd_case("re.toml", "reynolds = 250\n");
+  const CfdPlan p = plan_cfd(c, c.kinematics, BodyMotion{});
+  EXPECT_DOUBLE_EQ(p.reynolds, 250);
+  EXPECT_NEAR(p.nu, p.u_ref * p.l_ref / 250, 1e-15);
+}
+
+TEST(CfdPlan, BodyRotationWidensTheSweptVolume) {
+  const Case c = cfd_case("rot.toml", "cycles = 2\n");
+  const CfdPlan still = plan_cfd(c, c.kinematics, BodyMotion{});
+  BodyMotion m;
+  m.rate = Vec3(0, 5.0, 0);  // q: turns the insect ~0.77 rad over the two wingbeats
+  const CfdPlan turning = plan_cfd(c, c.kinematics, m);
+  EXPECT_GT((turning.swept_hi - turning.swept_lo).norm(), (still.swept_hi - still.swept_lo).norm());
+}
+
+TEST(CfdPlan, PartOutsideTheDomainIsAnInputErrorNamingTheMargin) {
+  const Case c = cfd_case("out.toml", "fine_margin_R = 0\nbelow_R = 0\n");
+  try {
+    plan_cfd(c, c.kinematics, BodyMotion{});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.key(), "aero.cfd.below_R");
+    EXPECT_EQ(e.file(), c.path);
+    EXPECT_NE(std::string(e.what()).find("leaves the domain"), std::string::npos);
+  }
+  // Enough margin on that face: fine.
+  const Case ok = cfd_case("out2.toml", "fine_margin_R = 0\nbelow_R = 0.5\n");
+  EXPECT_NO_THROW(plan_cfd(ok, ok.kinematics, BodyMotion{}));
+}
+
+TEST(CfdPlan, UnderResolvedChordIsAnErrorBelowFourCellsAndAWarningBelowEight) {
+  const Case bad = cfd_case("chord3.toml", "cells_per_chord = 3\n");
+  try {
+    plan_cfd(bad, bad.kinematics, BodyMotion{});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.key(), "aero.cfd.cells_per_chord");
+  }
+  // By wing length: R / 8 is 2.8 cells per chord for this moth (c / R = 0.35).
+  const Case bad2 = cfd_case("chordR.toml", "cells_per_wing_length = 8\n");
+  try {
+    plan_cfd(bad2, bad2.kinematics, BodyMotion{});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.key(), "aero.cfd.cells_per_wing_length");
+  }
+  const Case rough = cfd_case("chord6.toml", "cells_per_chord = 6\n");
+  const CfdPlan p = plan_cfd(rough, rough.kinematics, BodyMotion{});
+  ASSERT_EQ(p.warnings.size(), 1u);
+  EXPECT_NE(p.warnings[0].find("cells_per_chord"), std::string::npos);
+}
+
+TEST(CfdRun, ForcesCsvHeaderStatesAxesUnitsAndColumns) {
+  const std::string h = forces_csv_header();
+  std::istringstream in(h);
+  std::string line, cols;
+  int comments = 0;
+  while (std::getline(in, line)) {
+    if (line[0] == '#') ++comments;
+    else cols = line;
+  }
+  EXPECT_GE(comments, 3);
+  EXPECT_NE(h.find("stability axes S"), std::string::npos);
+  EXPECT_NE(h.find("origin O"), std::string::npos);
+  EXPECT_NE(h.find("force N, moment N m, power W"), std::string::npos);
+  EXPECT_EQ(cols.rfind("time_s,step,phase,body_Fx_p_N", 0), 0u);
+  for (const char* c : {"right_Fz_v_N", "left_My_p_N_m", "body_P_W", "Fz_N", "Mz_N_m", "wing_power_W"})
+    EXPECT_NE(cols.find(c), std::string::npos) << c;
+  CfdLoadRow r;
+  r.time = 0.1;
+  r.step = 3;
+  r.part[1].pressure_force = Vec3(1, 2, 3);
+  r.part[2].viscous_moment = Vec3(0, 0, 1.0 / 3);
+  const std::string row = forces_csv_row(r);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(cols.begin(), cols.end(), ','));
+  EXPECT_NE(row.find("0.33333333333333331"), std::string::npos);  // 17 significant digits: exact round trip
+  EXPECT_EQ(r.total().force, Vec3(1, 2, 3));
+}
+
+// Body-free flow in the insect's box: checkpoints every 10 steps; an interrupted run restarted from its newest
+// checkpoint reproduces the uninterrupted one bit for bit (forces.csv rows and the final state).
+TEST(CfdRun, RestartReproducesTheUninterruptedRunExactly) {
+  const Case c = cfd_case("restart.toml", tiny_keys);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = swirl;
+  o.directory = fresh_dir("whole");
+  const CfdResult whole = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  EXPECT_EQ(whole.steps, 60);
+  EXPECT_GT(whole.cells, 0u);
+  EXPECT_GT(whole.bytes, 100 * whole.cells);
+
+  CfdRunOptions a = o;
+  a.directory = fresh_dir("pieces");
+  a.stop_after_steps = 25;
+  const CfdResult first = run_cfd(c, c.kinematics, BodyMotion{}, a);
+  EXPECT_EQ(first.steps, 25);
+  EXPECT_FALSE(fs::exists(a.directory + "/run.json"));
+  // forces.csv holds the rows to step 25; the checkpoints at steps 10 and 20 are the last two kept.
+  {
+    std::istringstream in(read_text(a.directory + "/forces.csv"));
+    std::string line, last;
+    int rows = 0;
+    while (std::getline(in, line))
+      if (line[0] != '#' && line.rfind("time_s", 0) != 0) ++rows, last = line;
+    EXPECT_EQ(rows, 25);
+    EXPECT_NE(last.find(",25,"), std::string::npos);
+  }
+  EXPECT_TRUE(fs::exists(a.directory + "/checkpoints/checkpoint_000000020.h5"));
+  EXPECT_TRUE(fs::exists(a.directory + "/checkpoints/checkpoint_000000010.h5"));
+  EXPECT_FALSE(fs::exists(a.directory + "/checkpoints/checkpoint_000000000.h5"));
+
+  CfdRunOptions b = o;
+  b.directory = a.directory;
+  b.restart = true;
+  b.initial_velocity = {};  // the state comes from the checkpoint
+  const CfdResult second = run_cfd(c, c.kinematics, BodyMotion{}, b);
+  EXPECT_EQ(second.start_step, 20);
+  EXPECT_EQ(second.steps, 60);
+  EXPECT_NE(second.restarted_from.find("checkpoint_000000020.h5"), std::string::npos);
+
+  const std::string csv_whole = read_text(o.directory + "/forces.csv"), csv_pieces = read_text(a.directory + "/forces.csv");
+  const std::string header = forces_csv_header();
+  EXPECT_EQ(std::count(csv_whole.begin(), csv_whole.end(), '\n'), std::count(header.begin(), header.end(), '\n') + 60);
+  EXPECT_EQ(csv_whole, csv_pieces);
+  CheckpointReader x(o.directory + "/checkpoints/checkpoint_000000060.h5");
+  CheckpointReader y(a.directory + "/checkpoints/checkpoint_000000060.h5");
+  EXPECT_EQ(x.header().time, y.header().time);
+  for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"}) {
+    const auto u = x.read(name), v = y.read(name);
+    ASSERT_EQ(u.size(), v.size());
+    EXPECT_EQ(0, std::memcmp(u.data(), v.data(), u.size() * sizeof(double))) << name;
+  }
+  // The flow did move (the comparison is not between zeros).
+  double umax = 0;
+  for (double v : x.read("u0")) umax = std::max(umax, std::abs(v));
+  EXPECT_GT(umax, 0.05);
+  // run.json and the flow fields.
+  const std::string js = read_text(o.directory + "/run.json");
+  for (const char* k : {"\"reynolds\"", "\"total_cells\"", "\"seconds_per_step\"", "\"mean_loads_last_cycle\""})
+    EXPECT_NE(js.find(k), std::string::npos) << k;
+  EXPECT_TRUE(fs::exists(o.directory + "/fields/fields.xmf"));
+  const StoredField p = read_field(o.directory + "/fields/fields_000020.h5", "pressure");
+  EXPECT_EQ(p.units, "Pa");
+  const StoredField q = read_field(o.directory + "/fields/fields_000020.h5", "q_criterion");
+  bool finite = true;
+  for (double v : q.values) finite = finite && std::isfinite(v);
+  EXPECT_TRUE(finite);
+}
+
+TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
+  const std::string path = testing::write_temp("restart2.toml", cfd_case_text(tiny_keys));
+  Case c = load_case(path);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = swirl;
+  o.directory = fresh_dir("changed");
+  o.stop_after_steps = 12;
+  run_cfd(c, c.kinematics, BodyMotion{}, o);
+  o.stop_after_steps = 0;
+  o.restart = true;
+  std::ofstream(path, std::ios::app) << "# edited\n";
+  EXPECT_THROW(run_cfd(c, c.kinematics, BodyMotion{}, o), InputError);
+  o.directory = fresh_dir("empty");
+  EXPECT_THROW(run_cfd(c, c.kinematics, BodyMotion{}, o), InputError);
+  EXPECT_FALSE(fs::exists(o.directory));
+}
+
+TEST(CfdRun, DivergenceStopsWithStepAndTimeAndKeepsTheCheckpoint) {
+  // A fixed step far beyond the CFL limit of a 6 m/s swirl.
+  const Case c = cfd_case("diverge.toml", testing::replace(tiny_keys, "steps_per_cycle = 60", "steps_per_cycle = 4"));
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = [](double x, double y, double z) { return 12.0 * swirl(x, y, z); };
+  o.directory = fresh_dir("diverge");
+  try {
+    run_cfd(c, c.kinematics, BodyMotion{}, o);
+    FAIL() << "expected SolveError";
+  } catch (const SolveError& e) {
+    const std::string m = e.what();
+    // The first step (dt = T/4) blows up: step 1 ends at t = T/4.
+    EXPECT_NE(m.find("diverged at step 1 (t = 0.00961538 s, t/T = 0.2500)"), std::string::npos) << m;
+    EXPECT_NE(m.find("checkpoint_000000000.h5"), std::string::npos) << m;
+  }
+  EXPECT_TRUE(fs::exists(o.directory + "/checkpoints/checkpoint_000000000.h5"));
+  EXPECT_FALSE(fs::exists(o.directory + "/run.json"));
+}
+
+TEST(CfdRun, DryRunWritesNothing) {
+  const Case c = cfd_case("dry.toml", tiny_keys);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = swirl;
+  o.directory = fresh_dir("dry");
+  o.dry_run = true;
+  std::ostringstream log;
+  o.log = &log;
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  EXPECT_EQ(r.steps, 2);
+  EXPECT_GT(r.seconds_per_step_estimate, 0);
+  EXPECT_FALSE(fs::exists(o.directory));
+  for (const char* k : {"cells", "bytes per cell", "MiB", "estimate (timed on the first 2 steps)", "Re = "})
+    EXPECT_NE(log.str().find(k), std::string::npos) << k << "\n" << log.str();
+}
+
+}  // namespace
+}  // namespace flapstab::ns
