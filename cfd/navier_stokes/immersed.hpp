@@ -76,6 +76,9 @@ class ImmersedBoundary final : public StageHooks {
   // The part's surface at time t in grid axes (for VTK output).
   TriangleMesh surface(int part, double t) const;
   BoundingBox bounding_box(int part, double t) const;
+  // The part's lattice level set at world point x and time t (m): signed distance (negative inside) for a
+  // closed part, unsigned distance to the membrane's mid-surface for a membrane; capped at a few cell widths.
+  double level_set(int part, double t, const Vec3& x) const;
 
   // Places the parts at the solver's time, marks cell flags (solid / ghost = interface band / fluid) and
   // attaches itself to the solver's stages. Call after solver.initialise() (or restore()).

@@ -1,0 +1,607 @@
+// Immersed rigid parts: level sets on lattices, direct forcing after each predictor, loads by surface
+// integration (docs/theory/navier-stokes.md, section 7; the header states the method).
+#include "cfd/navier_stokes/immersed.hpp"
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <stdexcept>
+#include "cfd/navier_stokes/mesh_query.hpp"
+
+namespace flapstab::ns {
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------------------------
+// Grid sampling helpers (non-uniform axes: binary search on the coordinates).
+
+// Index i with c[i] <= x < c[i+1], clamped to [lo, hi - 1], and the linear weight of c[i+1] (clamped to [0, 1]).
+inline void bracket(const std::vector<double>& c, int lo, int hi, double x, int& i, double& w) {
+  const auto first = c.begin() + lo, last = c.begin() + hi + 1;
+  i = int(std::upper_bound(first, last, x) - c.begin()) - 1;
+  i = std::clamp(i, lo, hi - 1);
+  w = std::clamp((x - c[std::size_t(i)]) / (c[std::size_t(i) + 1] - c[std::size_t(i)]), 0.0, 1.0);
+}
+
+// Trilinear interpolation of a field stored at the points of component d (d = -1: cell centres), padded
+// indices 0..n+1 (ghosts carry the box conditions).
+double sample(const Grid& g, const Field& f, int d, const Vec3& x) {
+  int I[3];
+  double W[3];
+  for (int a = 0; a < 3; ++a) {
+    const Axis& ax = g.axis[std::size_t(a)];
+    if (a == d)
+      bracket(ax.xf, 1, ax.n + 1, x[a], I[a], W[a]);  // faces 1..n+1 (boundary faces included)
+    else
+      bracket(ax.xc, 0, ax.n + 1, x[a], I[a], W[a]);  // centres with the ghost layer
+  }
+  double v = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    const double w = (dx ? W[0] : 1 - W[0]) * (dy ? W[1] : 1 - W[1]) * (dz ? W[2] : 1 - W[2]);
+    if (w != 0) v += w * f(I[0] + dx, I[1] + dy, I[2] + dz);
+  }
+  return v;
+}
+
+// Largest width of the cell containing x (m): the local grid spacing h.
+double local_width(const Grid& g, const Vec3& x) {
+  double h = 0;
+  for (int a = 0; a < 3; ++a) {
+    const Axis& ax = g.axis[std::size_t(a)];
+    int i;
+    double w;
+    bracket(ax.xf, 1, ax.n + 1, x[a], i, w);
+    h = std::max(h, ax.dc[std::size_t(i)]);
+  }
+  return h;
+}
+
+// Index range [first, last] of coords c[lo..hi] inside [a, b] (empty when first > last).
+inline void index_range(const std::vector<double>& c, int lo, int hi, double a, double b, int& first, int& last) {
+  first = int(std::lower_bound(c.begin() + lo, c.begin() + hi + 1, a) - c.begin());
+  last = int(std::upper_bound(c.begin() + lo, c.begin() + hi + 1, b) - c.begin()) - 1;
+}
+
+BoundingBox transformed_box(const BoundingBox& b, const RigidTransform& T, double grow) {
+  BoundingBox out;
+  for (int c = 0; c < 8; ++c)
+    out.add(T.apply(Vec3(c & 1 ? b.hi.x() : b.lo.x(), c & 2 ? b.hi.y() : b.lo.y(), c & 4 ? b.hi.z() : b.lo.z())));
+  out.lo.array() -= grow;
+  out.hi.array() += grow;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Level set of one part on a uniform lattice in its reference frame (float storage: 4 bytes per point).
+
+struct LevelSet {
+  Vec3 origin = Vec3::Zero();
+  double h = 1;
+  int n[3] = {0, 0, 0};
+  double cap = 0;  // |values| are capped here; outside the lattice = +cap (far fluid)
+  std::vector<float> v;
+
+  std::size_t index(int i, int j, int k) const { return std::size_t(i) + std::size_t(n[0]) * (std::size_t(j) + std::size_t(n[1]) * std::size_t(k)); }
+
+  double at(const Vec3& y) const {
+    const Vec3 s = (y - origin) / h;
+    int I[3];
+    double W[3];
+    for (int a = 0; a < 3; ++a) {
+      const double f = std::floor(s[a]);
+      if (!(f >= 0 && f <= n[a] - 2)) {
+        if (s[a] == double(n[a] - 1)) {  // on the upper lattice face
+          I[a] = n[a] - 2;
+          W[a] = 1;
+          continue;
+        }
+        return cap;
+      }
+      I[a] = int(f);
+      W[a] = s[a] - f;
+    }
+    const std::size_t sy = std::size_t(n[0]), sz = std::size_t(n[0]) * std::size_t(n[1]);
+    const float* p = v.data() + index(I[0], I[1], I[2]);
+    const double x0 = W[0], x1 = 1 - W[0];
+    const double c00 = x1 * p[0] + x0 * p[1], c10 = x1 * p[sy] + x0 * p[sy + 1];
+    const double c01 = x1 * p[sz] + x0 * p[sz + 1], c11 = x1 * p[sz + sy] + x0 * p[sz + sy + 1];
+    const double c0 = (1 - W[1]) * c00 + W[1] * c10, c1 = (1 - W[1]) * c01 + W[1] * c11;
+    return (1 - W[2]) * c0 + W[2] * c1;
+  }
+
+  // Gradient by central differences of the interpolated field, step = the lattice spacing.
+  Vec3 gradient(const Vec3& y) const {
+    Vec3 gr;
+    for (int a = 0; a < 3; ++a) {
+      Vec3 e = Vec3::Zero();
+      e[a] = h;
+      gr[a] = (at(y + e) - at(y - e)) / (2 * h);
+    }
+    return gr;
+  }
+};
+
+constexpr std::size_t max_lattice_points = std::size_t(64) << 20;  // 64 M points = 256 MB
+
+LevelSet build_level_set(const TriangleMesh& mesh, double spacing, double margin) {
+  const MeshQuery q(mesh);
+  const BoundingBox b = mesh.bounding_box();
+  LevelSet ls;
+  ls.h = spacing;
+  ls.cap = margin;
+  ls.origin = b.lo - Vec3::Constant(margin);
+  std::size_t total = 1;
+  for (int a = 0; a < 3; ++a) {
+    ls.n[a] = int(std::ceil((b.hi[a] - b.lo[a] + 2 * margin) / spacing)) + 1;
+    ls.n[a] = std::max(ls.n[a], 2);
+    total *= std::size_t(ls.n[a]);
+    if (total > max_lattice_points)
+      throw std::invalid_argument("immersed boundary: the level-set lattice of part '" + mesh.label + "' would exceed " +
+                                  std::to_string(max_lattice_points >> 20) + " M points (spacing " + std::to_string(spacing) +
+                                  " m over a box of " + std::to_string(b.hi[0] - b.lo[0]) + " x " + std::to_string(b.hi[1] - b.lo[1]) +
+                                  " x " + std::to_string(b.hi[2] - b.lo[2]) +
+                                  " m); lower lattice_refinement or refine the grid only where the part moves");
+  }
+  ls.v.assign(total, float(margin));
+  std::vector<std::uint8_t> unknown(total, 0);
+  const bool closed = !mesh.membrane;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < ls.n[2]; ++k)
+    for (int j = 0; j < ls.n[1]; ++j)
+      for (int i = 0; i < ls.n[0]; ++i) {
+        const Vec3 y = ls.origin + spacing * Vec3(i, j, k);
+        const SurfacePoint s = q.closest(y, margin);
+        const std::size_t n = ls.index(i, j, k);
+        if (!s.found()) {
+          unknown[n] = 1;
+          continue;
+        }
+        ls.v[n] = float(closed ? std::clamp(s.signed_distance, -margin, margin) : std::min(s.distance, margin));
+      }
+  if (closed) {
+    // Points beyond the search radius: inside where connected to known inside points (flood fill).
+    std::deque<std::size_t> queue;
+    for (std::size_t n = 0; n < total; ++n)
+      if (!unknown[n] && ls.v[n] < 0) queue.push_back(n);
+    const std::size_t sy = std::size_t(ls.n[0]), sz = sy * std::size_t(ls.n[1]);
+    while (!queue.empty()) {
+      const std::size_t n = queue.front();
+      queue.pop_front();
+      const std::size_t i = n % sy, j = (n / sy) % std::size_t(ls.n[1]), k = n / sz;
+      const std::size_t nb[6] = {i > 0 ? n - 1 : n, i + 1 < sy ? n + 1 : n, j > 0 ? n - sy : n,
+                                 j + 1 < std::size_t(ls.n[1]) ? n + sy : n, k > 0 ? n - sz : n,
+                                 k + 1 < std::size_t(ls.n[2]) ? n + sz : n};
+      for (std::size_t m : nb)
+        if (unknown[m]) {
+          unknown[m] = 0;
+          ls.v[m] = float(-margin);
+          queue.push_back(m);
+        }
+    }
+  }
+  return ls;
+}
+
+// One forced face (or flagged cell): key = component * size + padded index.
+struct Entry {
+  std::int64_t key;
+  int part;
+  float phi;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------------
+
+struct ImmersedBoundary::Impl {
+  struct Part {
+    TriangleMesh mesh;  // reference frame
+    PartMotion motion;
+    LevelSet ls;
+    BoundingBox box;              // reference-frame mesh bounding box
+    std::vector<Vec3> centroid;   // per triangle, reference frame
+    std::vector<Vec3> normal;     // unit, reference frame
+    std::vector<double> area;
+  };
+
+  Grid grid;
+  ImmersedOptions opt;
+  std::vector<Part> parts;
+  std::array<std::vector<double>, 3> hface, hcell;  // per axis: width at a face (max of its two cells), at a cell
+  Solver* solver = nullptr;
+  std::vector<Entry> entries;         // forced faces of the last stage
+  std::vector<double> values;         // their new values
+  std::vector<std::int64_t> flagged;  // cells flagged in the last stage
+  std::size_t n_solid = 0, n_band = 0;
+  double last_adt = 0;
+
+  Impl(const Grid& g, ImmersedOptions o) : grid(g), opt(o) {
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = grid.axis[std::size_t(a)];
+      hcell[std::size_t(a)].assign(std::size_t(ax.n + 2), 0);
+      hface[std::size_t(a)].assign(std::size_t(ax.n + 2), 0);
+      for (int i = 0; i <= ax.n + 1; ++i) hcell[std::size_t(a)][std::size_t(i)] = ax.dc[std::size_t(i)];
+      for (int i = 1; i <= ax.n + 1; ++i)
+        hface[std::size_t(a)][std::size_t(i)] = std::max(ax.dc[std::size_t(i) - 1], ax.dc[std::size_t(std::min(i, ax.n + 1))]);
+      hface[std::size_t(a)][0] = ax.dc[0];
+    }
+  }
+
+  // Largest cell width over the cells overlapping a world box (m).
+  double max_width(const BoundingBox& b) const {
+    double h = 0;
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = grid.axis[std::size_t(a)];
+      int f, l;
+      index_range(ax.xc, 1, ax.n, b.lo[a], b.hi[a], f, l);
+      f = std::max(1, f - 1);
+      l = std::min(ax.n, l + 1);
+      for (int i = f; i <= l; ++i) h = std::max(h, ax.dc[std::size_t(i)]);
+    }
+    return h;
+  }
+
+  // The level-set value of part p at world point x for a face or cell of local width h (membrane offset).
+  double phi(const Part& p, const RigidTransform& pose, const Vec3& x, double h) const {
+    const double v = p.ls.at(pose.apply_inverse(x));
+    return p.mesh.membrane ? v - opt.membrane_half_thickness * h : v;
+  }
+
+  // Collects the faces of component d (d = 3: cell centres) with phi < h_local for every part at time t.
+  void collect(int d, const std::vector<PartState>& states, std::vector<Entry>& out) const {
+    const Shape s = grid.shape();
+    for (std::size_t ip = 0; ip < parts.size(); ++ip) {
+      const Part& p = parts[ip];
+      const RigidTransform& pose = states[ip].pose;
+      const BoundingBox world0 = transformed_box(p.box, pose, 0);
+      const double hmax = max_width(world0);
+      const double grow = (1.5 + (p.mesh.membrane ? opt.membrane_half_thickness : 0)) * hmax + 2 * p.ls.h;
+      const BoundingBox world = transformed_box(p.box, pose, grow);
+      int lo[3], hi[3];
+      bool empty = false;
+      for (int a = 0; a < 3; ++a) {
+        const Axis& ax = grid.axis[std::size_t(a)];
+        if (a == d) {
+          // Normal component: interior faces (boundary faces belong to the box conditions); periodic: 1..n.
+          const int first = ax.periodic ? 1 : 2, last = ax.n;
+          index_range(ax.xf, first, last, world.lo[a], world.hi[a], lo[a], hi[a]);
+        } else {
+          index_range(ax.xc, 1, ax.n, world.lo[a], world.hi[a], lo[a], hi[a]);
+        }
+        if (lo[a] > hi[a]) empty = true;
+      }
+      if (empty) continue;
+      const Axis &X = grid.axis[0], &Y = grid.axis[1], &Z = grid.axis[2];
+      const auto& hx = d == 0 ? hface[0] : hcell[0];
+      const auto& hy = d == 1 ? hface[1] : hcell[1];
+      const auto& hz = d == 2 ? hface[2] : hcell[2];
+      const auto& cx = d == 0 ? X.xf : X.xc;
+      const auto& cy = d == 1 ? Y.xf : Y.xc;
+      const auto& cz = d == 2 ? Z.xf : Z.xc;
+      const std::int64_t base = std::int64_t(d) * std::int64_t(s.size());
+      const std::size_t ncells = std::size_t(hi[0] - lo[0] + 1) * std::size_t(hi[1] - lo[1] + 1) * std::size_t(hi[2] - lo[2] + 1);
+#pragma omp parallel if (ncells >= min_parallel_cells)
+      {
+        std::vector<Entry> mine;
+#pragma omp for schedule(static) nowait
+        for (int k = lo[2]; k <= hi[2]; ++k)
+          for (int j = lo[1]; j <= hi[1]; ++j) {
+            const double hjk = std::max(hy[std::size_t(j)], hz[std::size_t(k)]);
+            for (int i = lo[0]; i <= hi[0]; ++i) {
+              const double h = std::max(hjk, hx[std::size_t(i)]);
+              const double ph = phi(p, pose, Vec3(cx[std::size_t(i)], cy[std::size_t(j)], cz[std::size_t(k)]), h);
+              if (ph < h) mine.push_back({base + s(i, j, k), int(ip), float(ph)});
+            }
+          }
+#pragma omp critical(flapstab_ib_collect)
+        out.insert(out.end(), mine.begin(), mine.end());
+      }
+    }
+    // Overlapping parts: a face solid in any part is solid (deepest part), band faces take the nearest part.
+    if (parts.size() > 1) {
+      std::sort(out.begin(), out.end(), [](const Entry& a, const Entry& b) { return a.key < b.key || (a.key == b.key && a.phi < b.phi); });
+      out.erase(std::unique(out.begin(), out.end(), [](const Entry& a, const Entry& b) { return a.key == b.key; }), out.end());
+    }
+  }
+
+  std::vector<PartState> states_at(double t) const {
+    std::vector<PartState> st;
+    st.reserve(parts.size());
+    for (const Part& p : parts) st.push_back(p.motion(t));
+    return st;
+  }
+
+  // Decodes an entry's component and indices.
+  void decode(std::int64_t key, int& d, int& i, int& j, int& k) const {
+    const Shape s = grid.shape();
+    d = int(key / std::int64_t(s.size()));
+    std::int64_t n = key % std::int64_t(s.size());
+    k = int(n / s.sz);
+    n -= std::int64_t(k) * s.sz;
+    j = int(n / s.sy);
+    i = int(n - std::int64_t(j) * s.sy);
+  }
+
+  double face_width(int d, int i, int j, int k) const {
+    const int I[3] = {i, j, k};
+    double h = 0;
+    for (int a = 0; a < 3; ++a) h = std::max(h, (a == d ? hface : hcell)[std::size_t(a)][std::size_t(I[a])]);
+    return h;
+  }
+
+  void mark_flags(const std::vector<PartState>& states) {
+    if (!solver) return;
+    auto& flags = solver->flags();
+    for (std::int64_t n : flagged) flags[std::size_t(n)] = CellFlag::fluid;
+    flagged.clear();
+    std::vector<Entry> cells;
+    collect(3, states, cells);
+    const std::int64_t base = 3 * std::int64_t(grid.shape().size());
+    for (const Entry& e : cells) {
+      const std::int64_t n = e.key - base;
+      flags[std::size_t(n)] = e.phi < 0 ? CellFlag::solid : CellFlag::ghost;
+      flagged.push_back(n);
+    }
+  }
+
+  void force(VectorField& ustar, double t) {
+    const std::vector<PartState> states = states_at(t);
+    entries.clear();
+    for (int d = 0; d < 3; ++d) collect(d, states, entries);
+    values.resize(entries.size());
+    const Shape s = grid.shape();
+    std::size_t solid = 0;
+    // Jacobi: every new value from the predicted field before any forcing of this stage.
+#pragma omp parallel for schedule(static) reduction(+ : solid) if (entries.size() >= 4096)
+    for (std::size_t m = 0; m < entries.size(); ++m) {
+      const Entry& e = entries[m];
+      int d, i, j, k;
+      decode(e.key, d, i, j, k);
+      const auto xp = grid.point(d, i, j, k);
+      const Vec3 x(xp[0], xp[1], xp[2]);
+      const PartState& st = states[std::size_t(e.part)];
+      if (e.phi < 0) {
+        values[m] = st.velocity.at(x)[d];
+        ++solid;
+        continue;
+      }
+      const Part& p = parts[std::size_t(e.part)];
+      const double h = face_width(d, i, j, k);
+      Vec3 n = st.pose.rotation * p.ls.gradient(st.pose.apply_inverse(x));
+      const double norm = n.norm();
+      if (!(norm > 1e-6)) {  // no direction (medial point): treat as solid
+        values[m] = st.velocity.at(x)[d];
+        continue;
+      }
+      n /= norm;
+      const double ph = e.phi;
+      const double vs = st.velocity.at(x - ph * n)[d];
+      const double dprobe = opt.probe_near * h;  // probe distance from the face along the normal
+      const double up = sample(grid, ustar[d], d, x + dprobe * n);
+      values[m] = vs + (up - vs) * ph / (ph + dprobe);
+    }
+    for (std::size_t m = 0; m < entries.size(); ++m) {
+      int d = int(entries[m].key / std::int64_t(s.size()));
+      ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size()))] = values[m];
+    }
+    n_solid = solid;
+    n_band = entries.size() - solid;
+    mark_flags(states);
+  }
+
+  // Trilinear interpolation of the pressure at x from the fluid cells only (centre beyond the interface band;
+  // weights renormalised). The pressure of a cell whose faces are all forced is not physical: the forcing
+  // resets those faces every stage, so the projections keep adding to it (it grows linearly in time where
+  // mass leaks through the interface, see the theory notes); it never enters the fluid's momentum but must
+  // not enter the loads.
+  double sample_fluid_pressure(const Field& pr, const Part& part, const RigidTransform& pose, const Vec3& x) const {
+    int I[3];
+    double W[3];
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = grid.axis[std::size_t(a)];
+      bracket(ax.xc, 0, ax.n + 1, x[a], I[a], W[a]);
+    }
+    double v = 0, wsum = 0;
+    for (int c = 0; c < 8; ++c) {
+      const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+      const double w = (dx ? W[0] : 1 - W[0]) * (dy ? W[1] : 1 - W[1]) * (dz ? W[2] : 1 - W[2]);
+      if (w == 0) continue;
+      const int i = I[0] + dx, j = I[1] + dy, k = I[2] + dz;
+      const auto xc = grid.centre(i, j, k);
+      const double h = std::max({hcell[0][std::size_t(i)], hcell[1][std::size_t(j)], hcell[2][std::size_t(k)]});
+      if (phi(part, pose, Vec3(xc[0], xc[1], xc[2]), h) < h) continue;  // solid and band cells
+      v += w * pr(i, j, k);
+      wsum += w;
+    }
+    return wsum > 0 ? v / wsum : sample(grid, pr, -1, x);
+  }
+
+  Vec3 acceleration(const Part& p, const Vec3& c_ref, double t) const {
+    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
+    const PartState a = p.motion(t + e), b = p.motion(t - e);
+    return (a.velocity.at(a.pose.apply(c_ref)) - b.velocity.at(b.pose.apply(c_ref))) / (2 * e);
+  }
+
+  // Visits every triangle and wetted side of part ip at the solver's time: (triangle, side, surface point,
+  // side normal, area, kinematic wall pressure, viscous traction per unit nu, wall velocity).
+  template <class F>
+  void visit(const Solver& sv, int ip, F&& f) const {
+    const Part& p = parts[std::size_t(ip)];
+    const double t = sv.time();
+    const PartState st = p.motion(t);
+    const VectorField& u = sv.velocity();
+    const Field& pr = sv.pressure();
+    const int sides = p.mesh.membrane ? 2 : 1;
+    for (std::size_t tri = 0; tri < p.centroid.size(); ++tri) {
+      const Vec3 x = st.pose.apply(p.centroid[tri]);
+      const Vec3 n = st.pose.rotation * p.normal[tri];
+      const double h = local_width(grid, x);
+      const Vec3 a = acceleration(p, p.centroid[tri], t);
+      for (int side = 0; side < sides; ++side) {
+        const Vec3 ns = side == 0 ? n : Vec3(-n);
+        const Vec3 xs = p.mesh.membrane ? Vec3(x + opt.membrane_half_thickness * h * ns) : x;  // effective surface
+        const double d1 = opt.probe_near * h, d2 = opt.probe_far * h;
+        const Vec3 x1 = xs + d1 * ns, x2 = xs + d2 * ns;
+        const double pwall = sample_fluid_pressure(pr, p, st.pose, x1) + d1 * a.dot(ns);
+        Vec3 w1, w2;
+        const Vec3 v1 = st.velocity.at(x1), v2 = st.velocity.at(x2);
+        for (int c = 0; c < 3; ++c) {
+          w1[c] = sample(grid, u[c], c, x1) - v1[c];
+          w2[c] = sample(grid, u[c], c, x2) - v2[c];
+        }
+        const Vec3 g = (d2 * d2 * w1 - d1 * d1 * w2) / (d1 * d2 * (d2 - d1));
+        f(tri, side, x, ns, p.area[tri], pwall, g, st.velocity.at(x));
+      }
+    }
+  }
+};
+
+PartMotion fixed_part(const RigidTransform& pose) {
+  return [pose](double) { return PartState{pose, RigidVelocity{pose.translation, Vec3::Zero(), Vec3::Zero()}}; };
+}
+
+ImmersedBoundary::ImmersedBoundary(const Grid& grid, ImmersedOptions options)
+    : impl_(std::make_unique<Impl>(grid, options)) {
+  const auto& o = impl_->opt;
+  if (!(o.density > 0) || !(o.lattice_refinement > 0) || !(o.membrane_half_thickness > 0) || !(o.probe_near > 0) ||
+      !(o.probe_far > o.probe_near))
+    throw std::invalid_argument("immersed boundary: need density > 0, lattice_refinement > 0, membrane_half_thickness > 0 and 0 < probe_near < probe_far");
+}
+
+ImmersedBoundary::~ImmersedBoundary() = default;
+
+int ImmersedBoundary::add_part(TriangleMesh reference, PartMotion motion) {
+  if (!motion) throw std::invalid_argument("immersed boundary: part '" + reference.label + "' has no motion");
+  reference.check();
+  if (reference.size() == 0) throw std::invalid_argument("immersed boundary: part '" + reference.label + "' has no triangles");
+  if (!reference.membrane && reference.open_or_inconsistent_edges() != 0)
+    throw std::invalid_argument("immersed boundary: closed part '" + reference.label +
+                                "' has open or inconsistently oriented edges (load it as a membrane)");
+  Impl& m = *impl_;
+  Impl::Part p;
+  p.box = reference.bounding_box();
+  // Lattice spacing: the finest grid spacing over the refinement; margin (probe_far + 2) local widths, the local
+  // width taken where the part starts (t = 0).
+  double hmin = std::numeric_limits<double>::infinity();
+  for (const Axis& ax : m.grid.axis) hmin = std::min(hmin, ax.min_width());
+  const PartState s0 = motion(0.0);
+  const double href = m.max_width(transformed_box(p.box, s0.pose, 0));
+  const double spacing = hmin / m.opt.lattice_refinement;
+  const double margin = (m.opt.probe_far + 2 + (reference.membrane ? m.opt.membrane_half_thickness : 0)) * href;
+  p.ls = build_level_set(reference, spacing, margin);
+  p.centroid.resize(reference.size());
+  p.normal.resize(reference.size());
+  p.area.resize(reference.size());
+  for (std::size_t t = 0; t < reference.size(); ++t) {
+    p.centroid[t] = (reference.vertex(t, 0) + reference.vertex(t, 1) + reference.vertex(t, 2)) / 3;
+    const Vec3 av = reference.area_vector(t);
+    p.area[t] = av.norm();
+    p.normal[t] = av / p.area[t];
+  }
+  p.mesh = std::move(reference);
+  p.motion = std::move(motion);
+  m.parts.push_back(std::move(p));
+  return int(m.parts.size()) - 1;
+}
+
+std::size_t ImmersedBoundary::parts() const { return impl_->parts.size(); }
+const std::string& ImmersedBoundary::label(int part) const { return impl_->parts.at(std::size_t(part)).mesh.label; }
+PartState ImmersedBoundary::state(int part, double t) const { return impl_->parts.at(std::size_t(part)).motion(t); }
+
+TriangleMesh ImmersedBoundary::surface(int part, double t) const {
+  const auto& p = impl_->parts.at(std::size_t(part));
+  return p.mesh.transformed(p.motion(t).pose);
+}
+
+BoundingBox ImmersedBoundary::bounding_box(int part, double t) const {
+  const auto& p = impl_->parts.at(std::size_t(part));
+  return transformed_box(p.box, p.motion(t).pose, 0);
+}
+
+double ImmersedBoundary::level_set(int part, double t, const Vec3& x) const {
+  const auto& p = impl_->parts.at(std::size_t(part));
+  return p.ls.at(p.motion(t).pose.apply_inverse(x));
+}
+
+void ImmersedBoundary::attach(Solver& solver) {
+  if (!(solver.grid().shape() == impl_->grid.shape()))
+    throw std::invalid_argument("immersed boundary: the solver's grid is not the one the boundary was built on");
+  impl_->solver = &solver;
+  solver.attach(this);
+  impl_->mark_flags(impl_->states_at(solver.time()));
+}
+
+void ImmersedBoundary::after_predictor(VectorField& ustar, double t, double alpha_dt) {
+  impl_->last_adt = alpha_dt;
+  impl_->force(ustar, t);
+}
+
+void ImmersedBoundary::after_projection(VectorField&, Field&, double) {}
+
+std::vector<PartLoads> ImmersedBoundary::loads(const Solver& solver, const Vec3& moment_point) const {
+  const Impl& m = *impl_;
+  const double rho = m.opt.density, nu = solver.options().nu;
+  std::vector<PartLoads> out(m.parts.size());
+  for (std::size_t ip = 0; ip < m.parts.size(); ++ip) {
+    PartLoads& L = out[ip];
+    L.label = m.parts[ip].mesh.label;
+    m.visit(solver, int(ip), [&](std::size_t, int, const Vec3& x, const Vec3& ns, double A, double pw, const Vec3& g, const Vec3& V) {
+      const Vec3 fp = -rho * A * pw * ns, fv = rho * A * nu * g;
+      const Vec3 r = x - moment_point;
+      L.pressure_force += fp;
+      L.viscous_force += fv;
+      L.pressure_moment += r.cross(fp);
+      L.viscous_moment += r.cross(fv);
+      L.power -= (fp + fv).dot(V);
+    });
+  }
+  return out;
+}
+
+SurfacePressure ImmersedBoundary::surface_pressure(const Solver& solver, int part) const {
+  const Impl& m = *impl_;
+  const auto& p = m.parts.at(std::size_t(part));
+  // Far-field reference: the volume-weighted mean pressure of the cells along the box's faces.
+  const Grid& g = m.grid;
+  const Shape s = g.shape();
+  const Field& pr = solver.pressure();
+  double sum = 0, vol = 0;
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        if (!(i == 1 || i == s.nx || j == 1 || j == s.ny || k == 1 || k == s.nz)) {
+          i = s.nx - 1;  // skip the interior of this line
+          continue;
+        }
+        const double v = g.volume(i, j, k);
+        sum += v * pr(i, j, k);
+        vol += v;
+      }
+  const double pfar = vol > 0 ? sum / vol : 0;
+  SurfacePressure out;
+  out.front.assign(p.mesh.size(), 0);
+  if (p.mesh.membrane) out.back.assign(p.mesh.size(), 0);
+  m.visit(solver, part, [&](std::size_t tri, int side, const Vec3&, const Vec3&, double, double pw, const Vec3&, const Vec3&) {
+    (side == 0 ? out.front : out.back)[tri] = m.opt.density * (pw - pfar);
+  });
+  return out;
+}
+
+std::size_t ImmersedBoundary::solid_faces() const { return impl_->n_solid; }
+std::size_t ImmersedBoundary::band_faces() const { return impl_->n_band; }
+
+std::size_t ImmersedBoundary::bytes() const {
+  std::size_t b = sizeof(Impl);
+  for (const auto& p : impl_->parts)
+    b += p.ls.v.capacity() * sizeof(float) + p.mesh.vertices.capacity() * sizeof(Vec3) +
+         p.mesh.triangles.capacity() * sizeof(std::array<int, 3>) + p.centroid.capacity() * 2 * sizeof(Vec3) +
+         p.area.capacity() * sizeof(double);
+  b += impl_->entries.capacity() * sizeof(Entry) + impl_->values.capacity() * sizeof(double) +
+       impl_->flagged.capacity() * sizeof(std::int64_t);
+  return b;
+}
+
+}  // namespace flapstab::ns
