@@ -78,6 +78,36 @@ TEST(CfdCli, RestartWithoutCheckpointsIsBadInput) {
   EXPECT_FALSE(fs::exists(dir));
 }
 
+const char* tiny =
+    "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
+    "below_R = 0.5\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\nthreads = 1\n";
+
+TEST(CfdCli, DryRunPrintsTheEstimateAndWritesNothing) {
+  const std::string path = write_temp("cfdcli_dry.toml", with_cfd(std::string(tiny) + "steps_per_cycle = 400\n"));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_dry_dir";
+  fs::remove_all(dir);
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + " --dry-run");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir));
+  for (const char* k : {"Re = ", "cells", "bytes per cell", "400 steps", "estimate (timed on the first 2 steps)"})
+    EXPECT_NE(r.err.find(k), std::string::npos) << k << "\n" << r.err;
+  EXPECT_NE(r.out.find("nothing written"), std::string::npos) << r.out;
+}
+
+// A fixed step far too large for the wings (the tip crosses many cells per step): the run stops with status 3,
+// the message names the step and time, and the initial checkpoint stays for a restart with a smaller step.
+TEST(CfdCli, DivergenceExitsWithThreeAndKeepsTheCheckpoint) {
+  const std::string path = write_temp("cfdcli_diverge.toml", with_cfd(std::string(tiny) + "steps_per_cycle = 4\n"));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_diverge_dir";
+  fs::remove_all(dir);
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + " -q");
+  EXPECT_EQ(r.status, 3) << r.err;
+  EXPECT_NE(r.err.find("diverged at step 1 (t = "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("aero.cfd.steps_per_cycle"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "checkpoints" / "checkpoint_000000000.h5"));
+  EXPECT_FALSE(fs::exists(dir / "run.json"));
+}
+
 TEST(CfdCli, HelpDescribesTheOptions) {
   const CfdRunOutput r = flapstab_cfd("--help");
   EXPECT_EQ(r.status, 0);

@@ -299,5 +299,101 @@ TEST(CfdRun, DryRunWritesNothing) {
     EXPECT_NE(log.str().find(k), std::string::npos) << k << "\n" << log.str();
 }
 
+// ---- with the immersed insect ----------------------------------------------------------------------------------
+
+const char* tiny_moth_keys =
+    "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
+    "below_R = 0.5\nsteps_per_cycle = 400\nfields_per_cycle = 100\nsurfaces_per_cycle = 100\n"
+    "checkpoints_per_cycle = 100\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\nthreads = 1\n";
+
+double wing_scale(const CfdLoadRow& r) {
+  return (r.part[1].pressure_force + r.part[1].viscous_force).norm();
+}
+
+// The test moth's kinematics are symmetric: the left wing's loads mirror the right wing's in the x-z plane
+// (force: x, z equal, y opposite; moment about O: x, z opposite, y equal), up to the grid's own asymmetry.
+TEST(CfdRunImmersed, TinyMothLoadsAreFiniteAndMirrorSymmetric) {
+  const Case c = cfd_case("moth_sym.toml", tiny_moth_keys);
+  CfdRunOptions o;
+  o.stop_after_steps = 8;
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  ASSERT_EQ(r.rows.size(), 8u);
+  // Scale: the largest wing force of the window (the impulsive start makes the first steps' loads large).
+  double f = 0;
+  for (const auto& row : r.rows) f = std::max(f, wing_scale(row));
+  ASSERT_GT(f, 0);
+  ASSERT_TRUE(std::isfinite(f));
+  const double m = f * c.insect.wing.length;
+  for (const auto& row : r.rows) {
+    const auto& R = row.part[1];
+    const auto& L = row.part[2];
+    const Vec3 FR = R.pressure_force + R.viscous_force, FL = L.pressure_force + L.viscous_force;
+    const Vec3 MR = R.pressure_moment + R.viscous_moment, ML = L.pressure_moment + L.viscous_moment;
+    ASSERT_TRUE(FR.allFinite() && FL.allFinite() && MR.allFinite() && ML.allFinite());
+    // A wrong mirror image (the left wing's pose or velocity) breaks these by the loads' own size.
+    EXPECT_NEAR(FL.x(), FR.x(), 0.03 * f) << row.step;
+    EXPECT_NEAR(FL.y(), -FR.y(), 0.03 * f) << row.step;
+    EXPECT_NEAR(FL.z(), FR.z(), 0.03 * f) << row.step;
+    EXPECT_NEAR(ML.x(), -MR.x(), 0.03 * m) << row.step;
+    EXPECT_NEAR(ML.y(), MR.y(), 0.03 * m) << row.step;
+    EXPECT_NEAR(ML.z(), -MR.z(), 0.03 * m) << row.step;
+    // The body sits on the symmetry plane: its side force stays small next to its drag and lift.
+    const Vec3 FB = row.part[0].pressure_force + row.part[0].viscous_force;
+    EXPECT_LT(std::abs(FB.y()), 0.1 * std::hypot(FB.x(), FB.z()) + 0.01 * f) << row.step;
+    EXPECT_TRUE(std::isfinite(row.wing_power));
+  }
+  // The wings do work on the air over the window.
+  double work = 0;
+  for (const auto& row : r.rows) work += row.wing_power;
+  EXPECT_GT(work, 0.0);
+}
+
+TEST(CfdRunImmersed, RestartWithTheInsectReproducesTheRowsExactly) {
+  const Case c = cfd_case("moth_restart.toml", tiny_moth_keys);  // checkpoints every 4 steps
+  CfdRunOptions o;
+  o.directory = fresh_dir("moth_whole");
+  o.stop_after_steps = 10;
+  run_cfd(c, c.kinematics, BodyMotion{}, o);
+  CfdRunOptions a = o;
+  a.directory = fresh_dir("moth_pieces");
+  a.stop_after_steps = 6;
+  run_cfd(c, c.kinematics, BodyMotion{}, a);
+  a.restart = true;
+  a.stop_after_steps = 10;
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, a);
+  EXPECT_EQ(r.start_step, 4);
+  const std::string x = read_text(o.directory + "/forces.csv"), y = read_text(a.directory + "/forces.csv");
+  EXPECT_EQ(x, y);
+  const std::string header = forces_csv_header();
+  EXPECT_EQ(std::count(x.begin(), x.end(), '\n'), std::count(header.begin(), header.end(), '\n') + 10);
+  EXPECT_NE(x.find("\n"), std::string::npos);
+  // Surfaces with pressure on both sides of the wings.
+  EXPECT_TRUE(fs::exists(o.directory + "/surfaces/surfaces.pvd"));
+  const std::string vtp = read_text(o.directory + "/surfaces/surfaces_right_000004.vtp");
+  EXPECT_NE(vtp.find("pressure_back"), std::string::npos);
+}
+
+TEST(CfdRunImmersed, CfdModelReturnsTheLastCycleAboutO) {
+  // Gentle wingbeat (stroke +-10 deg, pitch 90 +- 10 deg) at Re = 20: a whole wingbeat on the tiny grid.
+  std::string text = cfd_case_text(testing::replace(tiny_moth_keys, "steps_per_cycle = 400", "steps_per_cycle = 60") +
+                                   "reynolds = 20\n");
+  text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
+                          "sin_deg = [-10.0]");
+  Case c = load_case(testing::write_temp("moth_model.toml", text));
+  const CfdModel model(c);
+  AeroRunOptions ro;
+  ro.cycles = 1;
+  ro.samples_per_cycle = 20;
+  const WrenchHistory h = model.run(c.insect, c.kinematics, BodyMotion{}, ro);
+  ASSERT_EQ(h.samples.size(), 20u);
+  EXPECT_DOUBLE_EQ(h.samples[0].time, 0.0);
+  EXPECT_NEAR(h.samples[19].time, 0.95 * c.kinematics.period(), 1e-15);
+  for (const auto& s : h.samples) {
+    EXPECT_TRUE(s.total().force.allFinite());
+    EXPECT_TRUE(std::isfinite(s.power));
+  }
+  EXPECT_GT(std::abs(h.mean().force.z()), 0.0);
+}
+
 }  // namespace
 }  // namespace flapstab::ns
