@@ -635,6 +635,15 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   clock::time_point t_after_warmup = t_loop;
   long warm_steps = 0;
   double dt = 0;
+  auto finish_timings = [&] {
+    res.steps = step;
+    const auto t_done = clock::now();
+    res.wall_seconds = std::chrono::duration<double>(t_done - t_start).count();
+    if (warm_steps > 2)
+      res.seconds_per_step = std::chrono::duration<double>(t_done - t_after_warmup).count() / double(warm_steps - 2);
+    else
+      res.seconds_per_step = res.seconds_per_step_estimate;
+  };
   while (in_run(step, solver.time())) {
     const double ta = solver.time();
     const auto t_step0 = clock::now();
@@ -715,19 +724,12 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     }
     (void)t_step0;
     if (o.stop_after_steps > 0 && step >= o.stop_after_steps && in_run(step, tb)) {
-      res.steps = step;
+      finish_timings();
       flush_csv();
-      res.wall_seconds = std::chrono::duration<double>(clock::now() - t_start).count();
       return res;
     }
   }
-  res.steps = step;
-  const auto t_done = clock::now();
-  res.wall_seconds = std::chrono::duration<double>(t_done - t_start).count();
-  if (warm_steps > 2)
-    res.seconds_per_step = std::chrono::duration<double>(t_done - t_after_warmup).count() / double(warm_steps - 2);
-  else
-    res.seconds_per_step = res.seconds_per_step_estimate;
+  finish_timings();
   if (o.dry_run) return res;
 
   // Rows of the last wingbeat.
