@@ -719,7 +719,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
       const double per = std::chrono::duration<double>(now - t_loop).count() / std::max<long>(1, warm_steps);
       const double left = plan.steps_per_cycle > 0 ? double(total_steps - step) : std::max(0.0, (t_end - tb) / dt);
       *log << fmt::format("  step {:>7}  t/T {:8.4f}  cycle {:>3}  dt {:.3e} s  CFL {:.3f}  Poisson {:>2} it  ETA {}\n",
-                          step, tb / plan.period, int(std::floor(tb / plan.period * (1 + 1e-12))) + 1, dt, cfl_now,
+                          step, tb / plan.period, std::max(1, int(std::ceil(tb / plan.period - 1e-9))), dt, cfl_now,
                           iters, fmt_seconds(per * left));
     }
     (void)t_step0;
@@ -732,10 +732,10 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   finish_timings();
   if (o.dry_run) return res;
 
-  // Rows of the last wingbeat.
+  // Rows of the last wingbeat, with the one at its start when the run has it (the previous wingbeat's last step).
   const double last_start = (plan.cycles - 1) * plan.period;
   for (const auto& r : res.rows)
-    if (r.time > last_start * (1 + 1e-12) + 1e-300) res.last_cycle.push_back(r);
+    if (r.time > last_start - 1e-9 * plan.period) res.last_cycle.push_back(r);
 
   if (write) {
     if (last_checkpoint_step != step) checkpoint(dt);
@@ -824,10 +824,12 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   o.cycles = std::max(1, options.cycles);
   const CfdResult r = run_cfd(c, kin, motion, o);
   const double T = r.plan.period, start = (r.plan.cycles - 1) * T;
-  if (r.last_cycle.empty()) throw SolveError("cfd model: the run produced no loads");
+  if (r.last_cycle.empty() || r.last_cycle.back().time - start < 1e-9 * T)
+    throw SolveError("cfd model: the run produced no loads");
   // Phase times of the last wingbeat's rows in (0, T], extended periodically, resampled equally spaced.
   std::vector<std::pair<double, WrenchSample>> pts;
   for (const auto& row : r.last_cycle) {
+    if (row.time - start < 1e-9 * T) continue;  // the wingbeat's start row: the same phase as its end
     WrenchSample w;
     const auto wr = [&](int i) {
       const auto& q = row.part[i];
@@ -864,7 +866,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       lo = pts[k];
       hi = {pts.front().first + T, pts.front().second};
     }
-    const double f = hi.first > lo.first ? (tau - lo.first) / (hi.first - lo.first) : 0.0;
+    const double f = hi.first > lo.first ? (tau - lo.first) / (hi.first - lo.first) : 1.0;
     WrenchSample w = lerp(lo.second, hi.second, std::clamp(f, 0.0, 1.0));
     w.time = tau;
     h.samples.push_back(w);
