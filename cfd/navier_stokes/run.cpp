@@ -381,6 +381,41 @@ std::string forces_csv_row(const CfdLoadRow& r) {
   return s;
 }
 
+CfdLoadRow parse_forces_csv_row(const std::string& line) {
+  std::vector<double> v;
+  std::size_t pos = 0;
+  while (pos <= line.size()) {
+    std::size_t next = line.find(',', pos);
+    if (next == std::string::npos) next = line.size();
+    const std::string cell = line.substr(pos, next - pos);
+    std::size_t used = 0;
+    const double x = std::stod(cell, &used);
+    if (used == 0) throw std::invalid_argument("forces.csv: not a number: " + cell);
+    v.push_back(x);
+    pos = next + 1;
+  }
+  if (v.size() != 3 + 3 * 13 + 7) throw std::invalid_argument("forces.csv: a row with " + std::to_string(v.size()) + " columns");
+  CfdLoadRow r;
+  r.time = v[0];
+  r.step = long(v[1]);
+  r.phase = v[2];
+  std::size_t k = 3;
+  auto v3 = [&] {
+    const Vec3 a(v[k], v[k + 1], v[k + 2]);
+    k += 3;
+    return a;
+  };
+  for (auto& q : r.part) {
+    q.pressure_force = v3();
+    q.viscous_force = v3();
+    q.pressure_moment = v3();
+    q.viscous_moment = v3();
+    q.power = v[k++];
+  }
+  r.wing_power = v.back();
+  return r;
+}
+
 std::string case_hash(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::uint64_t h = 1469598103934665603ull;
@@ -519,6 +554,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   std::optional<FieldWriter> fields;
   std::optional<SurfaceWriter> surf_writer;
   std::vector<std::string> csv_rows;  // data rows of forces.csv
+  std::vector<CfdLoadRow> earlier;    // rows of the interrupted run up to the checkpoint (restart)
   std::string last_checkpoint;
   long last_checkpoint_step = -1;
   if (write) {
@@ -530,7 +566,10 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
         if (line.empty() || line[0] == '#' || line.rfind("time_s", 0) == 0) continue;
         const auto a = line.find(','), b = line.find(',', a + 1);
         if (a == std::string::npos || b == std::string::npos) continue;
-        if (std::stol(line.substr(a + 1, b - a - 1)) <= step) csv_rows.push_back(line + "\n");
+        if (std::stol(line.substr(a + 1, b - a - 1)) <= step) {
+          csv_rows.push_back(line + "\n");
+          earlier.push_back(parse_forces_csv_row(line));
+        }
       }
       last_checkpoint = res.restarted_from;
       last_checkpoint_step = step;
@@ -734,8 +773,9 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
 
   // Rows of the last wingbeat, with the one at its start when the run has it (the previous wingbeat's last step).
   const double last_start = (plan.cycles - 1) * plan.period;
-  for (const auto& r : res.rows)
-    if (r.time > last_start - 1e-9 * plan.period) res.last_cycle.push_back(r);
+  for (const auto* rows : {&earlier, &res.rows})
+    for (const auto& r : *rows)
+      if (r.time > last_start - 1e-9 * plan.period) res.last_cycle.push_back(r);
 
   if (write) {
     if (last_checkpoint_step != step) checkpoint(dt);

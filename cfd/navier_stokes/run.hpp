@@ -87,7 +87,7 @@ struct CfdResult {
   double seconds_per_step = 0;           // measured over the run (steps after the first two)
   double wall_seconds = 0;
   std::vector<CfdLoadRow> rows;  // every step of this run (restart: from the checkpoint on)
-  std::vector<CfdLoadRow> last_cycle;  // rows of the last wingbeat
+  std::vector<CfdLoadRow> last_cycle;  // rows of the last wingbeat (restart: with those of the earlier run)
   std::string restarted_from;    // checkpoint path
 };
 
@@ -101,6 +101,8 @@ std::string case_hash(const std::string& path);
 // The header lines of forces.csv (each starts with '#') and its column names.
 std::string forces_csv_header();
 std::string forces_csv_row(const CfdLoadRow& r);
+// The inverse of forces_csv_row (without its newline); std::invalid_argument for a malformed row.
+CfdLoadRow parse_forces_csv_row(const std::string& line);
 
 // The AeroModel over the driver: runs options.cycles wingbeats in memory and returns the last one.
 class CfdModel final : public AeroModel {

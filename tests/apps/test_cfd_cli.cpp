@@ -1,5 +1,7 @@
 // End-to-end tests of `flapstab cfd`: bad input exits with status 2 and writes nothing.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -106,6 +108,53 @@ TEST(CfdCli, DivergenceExitsWithThreeAndKeepsTheCheckpoint) {
   EXPECT_NE(r.err.find("aero.cfd.steps_per_cycle"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(dir / "checkpoints" / "checkpoint_000000000.h5"));
   EXPECT_FALSE(fs::exists(dir / "run.json"));
+}
+
+// A gentle wingbeat (stroke +-10 deg, pitch 90 +- 10 deg) at Re = 20 on a tiny grid: one wingbeat, then
+// --restart --cycles 2 runs on from the final checkpoint to the end of the second.
+TEST(CfdCli, RunThenRestartForMoreCycles) {
+  std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 60\nreynolds = 20\nfields_per_cycle = 2\n"
+                                                   "surfaces_per_cycle = 2\ncheckpoints_per_cycle = 2\n");
+  text = replace(replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]", "sin_deg = [-10.0]");
+  const std::string path = write_temp("cfdcli_run.toml", text);
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_run_dir";
+  fs::remove_all(dir);
+  CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* k : {"step      60", "t/T   1.0000", "cycle   1", "Poisson", "ETA"})
+    EXPECT_NE(r.err.find(k), std::string::npos) << k << "\n" << r.err;
+  for (const char* f : {"forces.csv", "run.json", "fields/fields.xmf", "fields/fields_000030.h5", "surfaces/surfaces.pvd",
+                        "surfaces/surfaces_left_000060.vtp", "checkpoints/checkpoint_000000060.h5",
+                        "checkpoints/checkpoint_000000030.h5"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "checkpoints/checkpoint_000000000.h5"));  // only the last two are kept
+  {
+    // The left and right wings' mean side forces over the first wingbeat mirror each other.
+    std::ifstream in1(dir / "run.json");
+    const nlohmann::json j1 = nlohmann::json::parse(in1);
+    const double yr = j1["mean_loads_last_cycle"]["right"]["force_N"][1];
+    const double yl = j1["mean_loads_last_cycle"]["left"]["force_N"][1];
+    EXPECT_GT(std::abs(yr), 0.0);
+    EXPECT_NEAR(yl, -yr, 0.02 * std::abs(yr));
+  }
+  r = flapstab_cfd(path + " -o " + dir.string() + " --restart --cycles 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("restarting from"), std::string::npos) << r.err;
+  std::ifstream in(dir / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["time"]["steps"], 120);
+  EXPECT_EQ(j["time"]["restart_step"], 60);
+  EXPECT_EQ(j["time"]["cycles"], 2);
+  EXPECT_EQ(j["command"], "cfd");
+  const auto& total = j["mean_loads_last_cycle"]["total"]["force_N"];
+  ASSERT_EQ(total.size(), 3u);
+  EXPECT_NEAR(double(j["mean_loads_last_cycle"]["from_s"]), 0.5 * double(j["time"]["end_time_s"]), 1e-12);
+  for (int a = 0; a < 3; ++a) EXPECT_TRUE(std::isfinite(double(total[std::size_t(a)])));
+  std::ifstream csv(dir / "forces.csv");
+  int rows = 0;
+  for (std::string line; std::getline(csv, line);)
+    if (!line.empty() && line[0] != '#' && line.rfind("time_s", 0) != 0) ++rows;
+  EXPECT_EQ(rows, 120);
 }
 
 TEST(CfdCli, HelpDescribesTheOptions) {

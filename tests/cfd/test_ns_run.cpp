@@ -171,6 +171,15 @@ TEST(CfdRun, ForcesCsvHeaderStatesAxesUnitsAndColumns) {
   EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(cols.begin(), cols.end(), ','));
   EXPECT_NE(row.find("0.33333333333333331"), std::string::npos);  // 17 significant digits: exact round trip
   EXPECT_EQ(r.total().force, Vec3(1, 2, 3));
+  r.wing_power = -2.5e-7;
+  r.part[0].power = 1e-300;
+  std::string text = forces_csv_row(r);
+  text.pop_back();
+  const CfdLoadRow back = parse_forces_csv_row(text);
+  EXPECT_EQ(forces_csv_row(back), forces_csv_row(r));
+  EXPECT_EQ(back.step, 3);
+  EXPECT_EQ(back.part[2].viscous_moment.z(), 1.0 / 3);
+  EXPECT_THROW(parse_forces_csv_row("1,2,3"), std::invalid_argument);
 }
 
 // Body-free flow in the insect's box: checkpoints every 10 steps; an interrupted run restarted from its newest
