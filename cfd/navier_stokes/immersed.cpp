@@ -215,8 +215,17 @@ struct ImmersedBoundary::Impl {
   std::vector<Entry> entries;         // forced faces of the last stage
   std::vector<double> values;         // their new values
   std::vector<std::int64_t> flagged;  // cells flagged in the last stage
+  std::vector<Entry> cells;           // their level-set values (key = 3 * size + cell index)
+  std::vector<std::uint8_t> forced_bits;  // per cell: bit d set when its lower d-face was forced this stage
+  std::vector<PartState> stage_states;    // the parts at the last stage's time
+  double stage_time = 0;
   std::size_t n_solid = 0, n_band = 0;
   double last_adt = 0;
+  struct Exchange {
+    Vec3 force = Vec3::Zero(), moment = Vec3::Zero();  // N, N m about the origin of the grid axes
+    double power = 0;                                   // W
+  };
+  std::vector<Exchange> exchange;  // per part, from the last stage's forcing
 
   Impl(const Grid& g, ImmersedOptions o) : grid(g), opt(o) {
     for (int a = 0; a < 3; ++a) {
@@ -337,7 +346,7 @@ struct ImmersedBoundary::Impl {
     auto& flags = solver->flags();
     for (std::int64_t n : flagged) flags[std::size_t(n)] = CellFlag::fluid;
     flagged.clear();
-    std::vector<Entry> cells;
+    cells.clear();
     collect(3, states, cells);
     const std::int64_t base = 3 * std::int64_t(grid.shape().size());
     for (const Entry& e : cells) {
@@ -347,7 +356,7 @@ struct ImmersedBoundary::Impl {
     }
   }
 
-  void force(VectorField& ustar, double t) {
+  void force(VectorField& ustar, double t, double adt) {
     const std::vector<PartState> states = states_at(t);
     entries.clear();
     for (int d = 0; d < 3; ++d) collect(d, states, entries);
@@ -379,21 +388,97 @@ struct ImmersedBoundary::Impl {
       n /= norm;
       const double ph = e.phi;
       const double vs = st.velocity.at(x - ph * n)[d];
-      const double dprobe = opt.probe_near * h;  // probe distance from the face along the normal
-      const double up = sample(grid, ustar[d], d, x + dprobe * n);
-      values[m] = vs + (up - vs) * ph / (ph + dprobe);
+      // Quadratic along the normal through the surface point (part velocity) and two probes in the fluid at
+      // probe_near and probe_far local widths beyond the face (Balaras 2004): closer to the near-wall profile
+      // than the linear law, so a face entering or leaving the band sees a smaller jump.
+      const double d1 = opt.probe_near * h, d2 = opt.probe_far * h;
+      const double u1 = sample(grid, ustar[d], d, x + d1 * n), u2 = sample(grid, ustar[d], d, x + d2 * n);
+      const double p1 = ph + d1, p2 = ph + d2;  // probe distances from the surface
+      const double l0 = (ph - p1) * (ph - p2) / (p1 * p2), l1 = ph * (ph - p2) / (p1 * (p1 - p2)),
+                   l2 = ph * (ph - p1) / (p2 * (p2 - p1));
+      values[m] = l0 * vs + l1 * u1 + l2 * u2;
     }
+    // Momentum exchange (Uhlmann 2005): the forcing adds rho (u_forced - u*) dV per stage of length alpha dt to
+    // the fluid; the fictitious fluid inside a part (solid faces) is accelerated with the part, which takes
+    // rho a dV of that. The fluid's force on the part is therefore -sum rho (u_forced - u*) dV / (alpha dt) over
+    // all forced faces + sum over solid faces of rho a dV.
+    const double eps = 0.05 * adt;
+    std::vector<PartState> plus, minus;
+    for (const Part& q : parts) plus.push_back(q.motion(t + eps)), minus.push_back(q.motion(t - eps));
+    exchange.assign(parts.size(), Exchange{});
     for (std::size_t m = 0; m < entries.size(); ++m) {
-      int d = int(entries[m].key / std::int64_t(s.size()));
-      ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size()))] = values[m];
+      int d, i, j, k;
+      decode(entries[m].key, d, i, j, k);
+      real& u = ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size()))];
+      double vol = 1;
+      const int I[3] = {i, j, k};
+      for (int a = 0; a < 3; ++a) vol *= a == d ? grid.axis[std::size_t(a)].dv[std::size_t(I[a])] : grid.axis[std::size_t(a)].dc[std::size_t(I[a])];
+      const std::size_t ip = std::size_t(entries[m].part);
+      const auto xp = grid.point(d, i, j, k);
+      const Vec3 x(xp[0], xp[1], xp[2]);
+      const PartState& st = states[ip];
+      double f = -opt.density * (values[m] - u) * vol / adt;  // d-component of the force on the part (N)
+      if (entries[m].phi < 0) {
+        const Vec3 y = st.pose.apply_inverse(x);
+        f += opt.density * vol * (plus[ip].velocity.at(plus[ip].pose.apply(y)) - minus[ip].velocity.at(minus[ip].pose.apply(y)))[d] / (2 * eps);
+      }
+      Vec3 F = Vec3::Zero();
+      F[d] = f;
+      Exchange& e = exchange[ip];
+      e.force += F;
+      e.moment += x.cross(F);
+      e.power -= F.dot(st.velocity.at(x));
+      u = values[m];
     }
     n_solid = solid;
     n_band = entries.size() - solid;
     mark_flags(states);
+    stage_states = states;
+    stage_time = t;
   }
 
-  // Trilinear interpolation of the pressure at x from the fluid cells only (centre beyond the interface band;
-  // weights renormalised). The pressure of a cell whose faces are all forced is not physical: the forcing
+  // The pressure of a cell whose six faces are all forced never enters the fluid's momentum, and the projections
+  // keep adding to it (it would grow linearly in time inside a part). When a moving part uncovers such a cell, its
+  // pressure would enter the fluid suddenly: a force spike. So after each projection those cells take the fluid
+  // pressure extended along the normal with the wall-normal momentum balance dp/dn = -a.n: p(x) = p(x_probe) +
+  // (distance to the probe) a.n, the probe probe_near local widths outside the surface.
+  void extend_pressure(Field& p) {
+    if (cells.empty() || stage_states.size() != parts.size()) return;
+    const Shape s = grid.shape();
+    forced_bits.resize(s.size(), 0);
+    for (const Entry& e : entries) forced_bits[std::size_t(e.key % std::int64_t(s.size()))] |= std::uint8_t(1u << (e.key / std::int64_t(s.size())));
+    const double eps = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(stage_time));
+    std::vector<PartState> plus, minus;
+    for (const Part& q : parts) plus.push_back(q.motion(stage_time + eps)), minus.push_back(q.motion(stage_time - eps));
+    const std::int64_t base = 3 * std::int64_t(s.size());
+    std::vector<double> newp(cells.size(), std::numeric_limits<double>::quiet_NaN());
+#pragma omp parallel for schedule(static) if (cells.size() >= 4096)
+    for (std::size_t m = 0; m < cells.size(); ++m) {
+      const std::ptrdiff_t n = std::ptrdiff_t(cells[m].key - base);
+      const auto all = [&](std::ptrdiff_t c, int d) { return (forced_bits[std::size_t(c)] >> d) & 1u; };
+      if (!(all(n, 0) && all(n + 1, 0) && all(n, 1) && all(n + s.sy, 1) && all(n, 2) && all(n + s.sz, 2))) continue;
+      const int k = int(n / s.sz), j = int((n - std::ptrdiff_t(k) * s.sz) / s.sy), i = int(n - std::ptrdiff_t(k) * s.sz - std::ptrdiff_t(j) * s.sy);
+      const std::size_t ip = std::size_t(cells[m].part);
+      const Part& q = parts[ip];
+      const PartState& st = stage_states[ip];
+      const auto xc = grid.centre(i, j, k);
+      const Vec3 x(xc[0], xc[1], xc[2]);
+      const double h = std::max({hcell[0][std::size_t(i)], hcell[1][std::size_t(j)], hcell[2][std::size_t(k)]});
+      const Vec3 y = st.pose.apply_inverse(x);
+      Vec3 nrm = st.pose.rotation * q.ls.gradient(y);
+      if (!(nrm.norm() > 1e-6)) continue;  // deep inside (beyond the lattice's cap): never near the fluid
+      nrm.normalize();
+      const double dist = opt.probe_near * h - double(cells[m].phi);  // from the cell centre to the probe
+      const Vec3 probe = x + dist * nrm;
+      const Vec3 a = (plus[ip].velocity.at(plus[ip].pose.apply(y)) - minus[ip].velocity.at(minus[ip].pose.apply(y))) / (2 * eps);
+      newp[m] = sample_fluid_pressure(p, q, st.pose, probe) + dist * a.dot(nrm);
+    }
+    for (std::size_t m = 0; m < cells.size(); ++m)
+      if (!std::isnan(newp[m])) p[std::ptrdiff_t(cells[m].key - base)] = newp[m];
+    for (const Entry& e : entries) forced_bits[std::size_t(e.key % std::int64_t(s.size()))] = 0;
+  }
+
+  // Trilinear interpolation of the pressure at x from the fluid cells only (weights renormalised). The pressure of a cell whose faces are all forced is not physical: the forcing
   // resets those faces every stage, so the projections keep adding to it (it grows linearly in time where
   // mass leaks through the interface, see the theory notes); it never enters the fluid's momentum but must
   // not enter the loads.
@@ -412,9 +497,11 @@ struct ImmersedBoundary::Impl {
       const int i = I[0] + dx, j = I[1] + dy, k = I[2] + dz;
       const auto xc = grid.centre(i, j, k);
       const double h = std::max({hcell[0][std::size_t(i)], hcell[1][std::size_t(j)], hcell[2][std::size_t(k)]});
-      if (phi(part, pose, Vec3(xc[0], xc[1], xc[2]), h) < h) continue;  // solid and band cells
-      v += w * pr(i, j, k);
-      wsum += w;
+      // Weight ramps from 0 at phi = 0.75 h (below it a cell can have all its faces forced) to 1 at 1.5 h, so
+      // that the sample changes smoothly as a moving part crosses the cells.
+      const double m = std::clamp((phi(part, pose, Vec3(xc[0], xc[1], xc[2]), h) - 0.75 * h) / (0.75 * h), 0.0, 1.0);
+      v += m * w * pr(i, j, k);
+      wsum += m * w;
     }
     return wsum > 0 ? v / wsum : sample(grid, pr, -1, x);
   }
@@ -445,7 +532,12 @@ struct ImmersedBoundary::Impl {
         const Vec3 xs = p.mesh.membrane ? Vec3(x + opt.membrane_half_thickness * h * ns) : x;  // effective surface
         const double d1 = opt.probe_near * h, d2 = opt.probe_far * h;
         const Vec3 x1 = xs + d1 * ns, x2 = xs + d2 * ns;
-        const double pwall = sample_fluid_pressure(pr, p, st.pose, x1) + d1 * a.dot(ns);
+        // Wall pressure: the quadratic through the two probes with the wall-normal momentum balance
+        // dp/dn = -a.n (kinematic) at the wall, p(d) = p_w - (a.n) d + c d^2.
+        const double p1 = sample_fluid_pressure(pr, p, st.pose, x1), p2 = sample_fluid_pressure(pr, p, st.pose, x2);
+        const double slope = -a.dot(ns);
+        const double c = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
+        const double pwall = p1 - slope * d1 - c * d1 * d1;
         Vec3 w1, w2;
         const Vec3 v1 = st.velocity.at(x1), v2 = st.velocity.at(x2);
         for (int c = 0; c < 3; ++c) {
@@ -536,10 +628,10 @@ void ImmersedBoundary::attach(Solver& solver) {
 
 void ImmersedBoundary::after_predictor(VectorField& ustar, double t, double alpha_dt) {
   impl_->last_adt = alpha_dt;
-  impl_->force(ustar, t);
+  impl_->force(ustar, t, alpha_dt);
 }
 
-void ImmersedBoundary::after_projection(VectorField&, Field&, double) {}
+void ImmersedBoundary::after_projection(VectorField&, Field& p, double) { impl_->extend_pressure(p); }
 
 std::vector<PartLoads> ImmersedBoundary::loads(const Solver& solver, const Vec3& moment_point) const {
   const Impl& m = *impl_;
@@ -587,6 +679,21 @@ SurfacePressure ImmersedBoundary::surface_pressure(const Solver& solver, int par
   m.visit(solver, part, [&](std::size_t tri, int side, const Vec3&, const Vec3&, double, double pw, const Vec3&, const Vec3&) {
     (side == 0 ? out.front : out.back)[tri] = m.opt.density * (pw - pfar);
   });
+  return out;
+}
+
+std::vector<PartLoads> ImmersedBoundary::exchange_loads(const Solver& solver, const Vec3& moment_point) const {
+  std::vector<PartLoads> out = loads(solver, moment_point);
+  const auto& ex = impl_->exchange;
+  for (std::size_t ip = 0; ip < out.size(); ++ip) {
+    PartLoads& L = out[ip];
+    const Impl::Exchange e = ip < ex.size() ? ex[ip] : Impl::Exchange{};
+    const Vec3 moment = e.moment - moment_point.cross(e.force);
+    // viscous part from the surface integral; the rest of the exchanged momentum is the pressure part
+    L.pressure_force = e.force - L.viscous_force;
+    L.pressure_moment = moment - L.viscous_moment;
+    L.power = e.power;
+  }
   return out;
 }
 
