@@ -329,6 +329,7 @@ CfdSettings parse_cfd(Section s) {
   d.surfaces_per_cycle = s.integer_or("surfaces_per_cycle", d.surfaces_per_cycle, 0, 100000);
   d.checkpoints_per_cycle = s.integer_or("checkpoints_per_cycle", d.checkpoints_per_cycle, 0, 100000);
   d.field_precision = s.string("field_precision", false, d.field_precision, {"float64", "float32"});
+  d.loads = s.string("loads", false, d.loads, {"exchange", "surface"});
   d.body_divisions = s.integer_or("body_divisions", d.body_divisions, 2, 1000);
   d.wing_span_stations = s.integer_or("wing_span_stations", d.wing_span_stations, 2, 10000);
   d.wing_chord_divisions = s.integer_or("wing_chord_divisions", d.wing_chord_divisions, 1, 10000);

@@ -187,8 +187,8 @@ class Bodies {
  public:
 #if FLAPSTAB_HAVE_IMMERSED
   Bodies(const Grid& grid, double rho, const std::vector<TriangleMesh>& reference, const Configuration& config,
-         const BodyMotion& motion)
-      : ib_(grid, ImmersedOptions{.density = rho}) {
+         const BodyMotion& motion, bool exchange)
+      : ib_(grid, ImmersedOptions{.density = rho}), exchange_(exchange) {
     for (int i = 0; i < 3; ++i) {
       PartMotion m = [&config, motion, i](double t) {
         const GridPart g = grid_part(relative_parts(config, t)[std::size_t(i)], motion, t);
@@ -199,16 +199,19 @@ class Bodies {
   }
   void attach(Solver& s) { ib_.attach(s); }
   std::size_t bytes() const { return ib_.bytes(); }
-  std::vector<PartLoads> loads(const Solver& s) const { return ib_.loads(s, Vec3::Zero()); }
+  std::vector<PartLoads> loads(const Solver& s) const {
+    return exchange_ ? ib_.exchange_loads(s, Vec3::Zero()) : ib_.loads(s, Vec3::Zero());
+  }
   TriangleMesh surface(int part, double t) const { return ib_.surface(part, t); }
   SurfacePressure pressure(const Solver& s, int part) const { return ib_.surface_pressure(s, part); }
   static bool available() { return true; }
 
  private:
   ImmersedBoundary ib_;
+  bool exchange_;
 #else
   // Never constructed: run_cfd refuses bodies first.
-  Bodies(const Grid&, double, const std::vector<TriangleMesh>&, const Configuration&, const BodyMotion&) {}
+  Bodies(const Grid&, double, const std::vector<TriangleMesh>&, const Configuration&, const BodyMotion&, bool) {}
   void attach(Solver&) {}
   std::size_t bytes() const { return 0; }
   static bool available() { return false; }
@@ -496,7 +499,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   const Configuration config(c.insect, kin);
   const InsectSurfaces surfaces(config, mesh_resolution(s));
   std::optional<Bodies> bodies;
-  if (o.bodies) bodies.emplace(grid, plan.rho, surfaces.reference(), config, motion);
+  if (o.bodies) bodies.emplace(grid, plan.rho, surfaces.reference(), config, motion, s.loads == "exchange");
 
   long step = 0;
   if (ck) {

@@ -358,40 +358,60 @@ double wing_scale(const CfdLoadRow& r) {
 
 // The test moth's kinematics are symmetric: the left wing's loads mirror the right wing's in the x-z plane
 // (force: x, z equal, y opposite; moment about O: x, z opposite, y equal), up to the grid's own asymmetry.
+// Surface-integrated loads within 3 % of the window's largest wing force; the momentum-exchange loads are noisier
+// from step to step (each forced face's switch enters directly), within 6 %.
 TEST(CfdRunImmersed, TinyMothLoadsAreFiniteAndMirrorSymmetric) {
-  const Case c = cfd_case("moth_sym.toml", tiny_moth_keys);
-  CfdRunOptions o;
-  o.stop_after_steps = 8;
-  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
-  ASSERT_EQ(r.rows.size(), 8u);
-  // Scale: the largest wing force of the window (the impulsive start makes the first steps' loads large).
-  double f = 0;
-  for (const auto& row : r.rows) f = std::max(f, wing_scale(row));
-  ASSERT_GT(f, 0);
-  ASSERT_TRUE(std::isfinite(f));
-  const double m = f * c.insect.wing.length;
-  for (const auto& row : r.rows) {
-    const auto& R = row.part[1];
-    const auto& L = row.part[2];
-    const Vec3 FR = R.pressure_force + R.viscous_force, FL = L.pressure_force + L.viscous_force;
-    const Vec3 MR = R.pressure_moment + R.viscous_moment, ML = L.pressure_moment + L.viscous_moment;
-    ASSERT_TRUE(FR.allFinite() && FL.allFinite() && MR.allFinite() && ML.allFinite());
-    // A wrong mirror image (the left wing's pose or velocity) breaks these by the loads' own size.
-    EXPECT_NEAR(FL.x(), FR.x(), 0.03 * f) << row.step;
-    EXPECT_NEAR(FL.y(), -FR.y(), 0.03 * f) << row.step;
-    EXPECT_NEAR(FL.z(), FR.z(), 0.03 * f) << row.step;
-    EXPECT_NEAR(ML.x(), -MR.x(), 0.03 * m) << row.step;
-    EXPECT_NEAR(ML.y(), MR.y(), 0.03 * m) << row.step;
-    EXPECT_NEAR(ML.z(), -MR.z(), 0.03 * m) << row.step;
-    // The body sits on the symmetry plane: its side force stays small next to its drag and lift.
-    const Vec3 FB = row.part[0].pressure_force + row.part[0].viscous_force;
-    EXPECT_LT(std::abs(FB.y()), 0.1 * std::hypot(FB.x(), FB.z()) + 0.01 * f) << row.step;
-    EXPECT_TRUE(std::isfinite(row.wing_power));
+  for (const auto& [method, tol] : {std::pair<std::string, double>{"surface", 0.03}, {"exchange", 0.06}}) {
+    SCOPED_TRACE(method);
+    const Case c = cfd_case("moth_sym_" + method + ".toml", std::string(tiny_moth_keys) + "loads = \"" + method + "\"\n");
+    CfdRunOptions o;
+    o.stop_after_steps = 8;
+    const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
+    ASSERT_EQ(r.rows.size(), 8u);
+    // Scale: the largest wing force of the window (the impulsive start makes the first steps' loads large).
+    double f = 0;
+    for (const auto& row : r.rows) f = std::max(f, wing_scale(row));
+    ASSERT_GT(f, 0);
+    ASSERT_TRUE(std::isfinite(f));
+    const double m = f * c.insect.wing.length;
+    for (const auto& row : r.rows) {
+      const auto& R = row.part[1];
+      const auto& L = row.part[2];
+      const Vec3 FR = R.pressure_force + R.viscous_force, FL = L.pressure_force + L.viscous_force;
+      const Vec3 MR = R.pressure_moment + R.viscous_moment, ML = L.pressure_moment + L.viscous_moment;
+      ASSERT_TRUE(FR.allFinite() && FL.allFinite() && MR.allFinite() && ML.allFinite());
+      // A wrong mirror image (the left wing's pose or velocity) breaks these by the loads' own size.
+      EXPECT_NEAR(FL.x(), FR.x(), tol * f) << row.step;
+      EXPECT_NEAR(FL.y(), -FR.y(), tol * f) << row.step;
+      EXPECT_NEAR(FL.z(), FR.z(), tol * f) << row.step;
+      EXPECT_NEAR(ML.x(), -MR.x(), tol * m) << row.step;
+      EXPECT_NEAR(ML.y(), MR.y(), tol * m) << row.step;
+      EXPECT_NEAR(ML.z(), -MR.z(), tol * m) << row.step;
+      // The body sits on the symmetry plane: its side force stays small.
+      const Vec3 FB = row.part[0].pressure_force + row.part[0].viscous_force;
+      EXPECT_LT(std::abs(FB.y()), tol * f) << row.step;
+      EXPECT_TRUE(std::isfinite(row.wing_power));
+    }
+    // The wings do work on the air over the window.
+    double work = 0;
+    for (const auto& row : r.rows) work += row.wing_power;
+    EXPECT_GT(work, 0.0);
   }
-  // The wings do work on the air over the window.
-  double work = 0;
-  for (const auto& row : r.rows) work += row.wing_power;
-  EXPECT_GT(work, 0.0);
+}
+
+// Over its first wingbeat from rest the moth's wings lift: the mean vertical force points up (-z), a sizeable part
+// of the weight on this coarse grid, and the wings do positive work on the air.
+TEST(CfdRunImmersed, TinyMothLiftsOverAWingbeat) {
+  const Case c = cfd_case("moth_lift.toml", testing::replace(tiny_moth_keys, "steps_per_cycle = 400", "steps_per_cycle = 200"));
+  CfdRunOptions o;
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  ASSERT_EQ(r.last_cycle.size(), 200u);
+  double fz = 0, power = 0;
+  for (const auto& row : r.last_cycle) fz += row.total().force.z() / 200, power += row.wing_power / 200;
+  const double weight = c.insect.total_mass() * 9.81;
+  std::printf("  tiny moth, first wingbeat: mean Fz = %.4g N (weight %.4g N), mean wing power %.4g W\n", fz, weight, power);
+  EXPECT_LT(fz, -0.2 * weight);
+  EXPECT_GT(power, 0.0);
 }
 
 TEST(CfdRunImmersed, RestartWithTheInsectReproducesTheRowsExactly) {

@@ -28,6 +28,7 @@ TEST(CaseFileCfd, DefaultsWhenTheTableIsAbsentOrEmpty) {
     EXPECT_DOUBLE_EQ(s.reynolds, 0);
     EXPECT_EQ(s.field_precision, "float32");
     EXPECT_EQ(s.threads, 0);
+    EXPECT_EQ(s.loads, "exchange");
   }
 }
 
@@ -37,7 +38,7 @@ TEST(CaseFileCfd, EveryKeyIsRead) {
       with_cfd("upstream_R = 1.5\ndownstream_R = 2.5\nlateral_R = 2\nabove_R = 1\nbelow_R = 4\nfine_margin_R = 0.2\n"
                "cells_per_wing_length = 40\nstretch_ratio = 1.07\nreynolds = 1000\ncycles = 3\nsteps_per_cycle = 200\n"
                "fields_per_cycle = 2\nsurfaces_per_cycle = 5\ncheckpoints_per_cycle = 0\nfield_precision = \"float64\"\n"
-               "body_divisions = 8\nwing_span_stations = 20\nwing_chord_divisions = 6\nthreads = 2\n")));
+               "body_divisions = 8\nwing_span_stations = 20\nwing_chord_divisions = 6\nthreads = 2\nloads = \"surface\"\n")));
   const CfdSettings& s = c.aero.cfd;
   EXPECT_DOUBLE_EQ(s.upstream_R, 1.5);
   EXPECT_DOUBLE_EQ(s.downstream_R, 2.5);
@@ -58,6 +59,7 @@ TEST(CaseFileCfd, EveryKeyIsRead) {
   EXPECT_EQ(s.wing_span_stations, 20);
   EXPECT_EQ(s.wing_chord_divisions, 6);
   EXPECT_EQ(s.threads, 2);
+  EXPECT_EQ(s.loads, "surface");
   const Case d = load_case(write_temp("cfd_cfl.toml", with_cfd("cfl = 0.8\ncells_per_chord = 12.5\n")));
   EXPECT_DOUBLE_EQ(d.aero.cfd.cfl, 0.8);
   EXPECT_DOUBLE_EQ(d.aero.cfd.cells_per_chord, 12.5);
@@ -113,6 +115,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCfd{"checkpoints_negative", "checkpoints_per_cycle = -2", "aero.cfd.checkpoints_per_cycle"},
         BadCfd{"precision", "field_precision = \"float16\"", "aero.cfd.field_precision"},
         BadCfd{"precision_type", "field_precision = 32", "aero.cfd.field_precision"},
+        BadCfd{"loads", "loads = \"pressure\"", "aero.cfd.loads"},
+        BadCfd{"loads_type", "loads = 1", "aero.cfd.loads"},
         BadCfd{"body_divisions", "body_divisions = 1", "aero.cfd.body_divisions"},
         BadCfd{"span_stations", "wing_span_stations = 1", "aero.cfd.wing_span_stations"},
         BadCfd{"chord_divisions", "wing_chord_divisions = 0", "aero.cfd.wing_chord_divisions"},
