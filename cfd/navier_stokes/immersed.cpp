@@ -292,17 +292,47 @@ struct ImmersedBoundary::Impl {
       const auto& cz = d == 2 ? Z.xf : Z.xc;
       const std::int64_t base = std::int64_t(d) * std::int64_t(s.size());
       const std::size_t ncells = std::size_t(hi[0] - lo[0] + 1) * std::size_t(hi[1] - lo[1] + 1) * std::size_t(hi[2] - lo[2] + 1);
+      // Each grid line along x maps to the line b + s e in the part's frame (e = R^T e_x): clip it to the lattice
+      // (outside is far fluid), and skip ahead where the level set is far above the band: the trilinear
+      // interpolant of a distance field changes by at most sqrt(3) per unit length.
+      const Vec3 e = pose.rotation.transpose() * Vec3::UnitX();
+      const Vec3 L0 = p.ls.origin, L1 = p.ls.origin + p.ls.h * Vec3(p.ls.n[0] - 1, p.ls.n[1] - 1, p.ls.n[2] - 1);
+      double hxmax = 0;
+      for (int i = lo[0]; i <= hi[0]; ++i) hxmax = std::max(hxmax, hx[std::size_t(i)]);
+      const double thick = p.mesh.membrane ? opt.membrane_half_thickness : 0.0;
+      constexpr double inv_sqrt3 = 0.57735026918962576;
 #pragma omp parallel if (ncells >= min_parallel_cells)
       {
         std::vector<Entry> mine;
-#pragma omp for schedule(static) nowait
+#pragma omp for schedule(dynamic, 1) nowait
         for (int k = lo[2]; k <= hi[2]; ++k)
           for (int j = lo[1]; j <= hi[1]; ++j) {
             const double hjk = std::max(hy[std::size_t(j)], hz[std::size_t(k)]);
-            for (int i = lo[0]; i <= hi[0]; ++i) {
+            const Vec3 b = pose.apply_inverse(Vec3(0, cy[std::size_t(j)], cz[std::size_t(k)]));
+            double s0 = -std::numeric_limits<double>::infinity(), s1 = std::numeric_limits<double>::infinity();
+            for (int a = 0; a < 3; ++a) {
+              if (std::abs(e[a]) < 1e-12) {
+                if (b[a] < L0[a] || b[a] > L1[a]) s0 = 1, s1 = 0;
+                continue;
+              }
+              const double ta = (L0[a] - b[a]) / e[a], tb = (L1[a] - b[a]) / e[a];
+              s0 = std::max(s0, std::min(ta, tb));
+              s1 = std::min(s1, std::max(ta, tb));
+            }
+            if (!(s0 <= s1)) continue;
+            int i0, i1;
+            index_range(cx, lo[0], hi[0], s0, s1, i0, i1);
+            const double T = (1 + thick) * std::max(hjk, hxmax);  // above this raw value: no band anywhere near
+            for (int i = i0; i <= i1; ++i) {
               const double h = std::max(hjk, hx[std::size_t(i)]);
-              const double ph = phi(p, pose, Vec3(cx[std::size_t(i)], cy[std::size_t(j)], cz[std::size_t(k)]), h);
-              if (ph < h) mine.push_back({base + s(i, j, k), int(ip), float(ph)});
+              const double r = p.ls.at(b + cx[std::size_t(i)] * e);
+              const double ph = r - thick * h;
+              if (ph < h) {
+                mine.push_back({base + s(i, j, k), int(ip), float(ph)});
+              } else if (r > T) {
+                const double stop = cx[std::size_t(i)] + (r - T) * inv_sqrt3;
+                while (i < i1 && cx[std::size_t(i) + 1] < stop) ++i;
+              }
             }
           }
 #pragma omp critical(flapstab_ib_collect)
@@ -441,7 +471,8 @@ struct ImmersedBoundary::Impl {
   // keep adding to it (it would grow linearly in time inside a part). When a moving part uncovers such a cell, its
   // pressure would enter the fluid suddenly: a force spike. So after each projection those cells take the fluid
   // pressure extended along the normal with the wall-normal momentum balance dp/dn = -a.n: p(x) = p(x_probe) +
-  // (distance to the probe) a.n, the probe probe_near local widths outside the surface.
+  // (distance to the probe) a.n, the probe probe_near local widths outside the surface. Only cells within 2
+  // local widths of the surface are extended (the deeper interior keeps a drifting, unused pressure).
   void extend_pressure(Field& p) {
     if (cells.empty() || stage_states.size() != parts.size()) return;
     const Shape s = grid.shape();
@@ -455,6 +486,11 @@ struct ImmersedBoundary::Impl {
 #pragma omp parallel for schedule(static) if (cells.size() >= 4096)
     for (std::size_t m = 0; m < cells.size(); ++m) {
       const std::ptrdiff_t n = std::ptrdiff_t(cells[m].key - base);
+      // Cells deeper than 2 local widths cannot be uncovered within a stage (CFL < 1); they are extended on
+      // their way out.
+      if (cells[m].phi < -2 * std::max({hcell[0][std::size_t(n % s.sy)], hcell[1][std::size_t((n / s.sy) % (s.ny + 2))],
+                                         hcell[2][std::size_t(n / s.sz)]}))
+        continue;
       const auto all = [&](std::ptrdiff_t c, int d) { return (forced_bits[std::size_t(c)] >> d) & 1u; };
       if (!(all(n, 0) && all(n + 1, 0) && all(n, 1) && all(n + s.sy, 1) && all(n, 2) && all(n + s.sz, 2))) continue;
       const int k = int(n / s.sz), j = int((n - std::ptrdiff_t(k) * s.sz) / s.sy), i = int(n - std::ptrdiff_t(k) * s.sz - std::ptrdiff_t(j) * s.sy);

@@ -503,4 +503,55 @@ TEST(ImmersedConverged, DISABLED_OscillatingSphere) {
   EXPECT_NEAR(f[1].amplitude / m[1].amplitude, 1.0, 0.02);
 }
 
+// Cost of the immersed boundary per Runge-Kutta stage on an insect-like case (docs/validation.md): 128^3 = 2.1 M
+// cells of h = 3/128 over [-1.5, 1.5]^3; a closed ellipsoid body (1 x 0.3 x 0.3) and two membrane wings
+// (elliptic, R = 1, mean chord 0.3, 40 x 10 stations), flapping +-60 degrees about the body's z axis with a
+// +-45 degree pitch about the span. Times after_predictor + after_projection over 24 stage times of a wingbeat
+// (no flow solve). Prints, asserts nothing about time.
+TEST(ImmersedConverged, DISABLED_CostPerStage) {
+  const int n = 128;
+  const Grid g(Axis::uniform(-1.5, 1.5, n, false), Axis::uniform(-1.5, 1.5, n, false), Axis::uniform(-1.5, 1.5, n, false));
+  SolverOptions opt;
+  opt.nu = 0.01;
+  Solver s(g, Boundaries::all(BC::velocity), opt);
+  ImmersedBoundary ib(g);
+  const auto t_build = std::chrono::steady_clock::now();
+  ib.add_part(ellipsoid_mesh(Vec3(1.0, 0.3, 0.3), 16), fixed_part());
+  flapstab::Wing w;
+  w.length = 1;
+  w.mean_chord = 0.3;
+  const TriangleMesh wing = wing_mesh(w, 40, 10);
+  for (int side = 0; side < 2; ++side) {
+    const double sgn = side == 0 ? 1 : -1;
+    const Vec3 hinge(0.1, 0.15 * sgn, 0.1);
+    ib.add_part(wing, [=](double t) {
+      const double phi = (pi / 3) * std::sin(2 * pi * t), dphi = (pi / 3) * 2 * pi * std::cos(2 * pi * t);
+      const double th = (pi / 4) * std::cos(2 * pi * t), dth = -(pi / 4) * 2 * pi * std::sin(2 * pi * t);
+      Mat3 mirror = Mat3::Identity();
+      mirror(1, 1) = sgn;
+      const Mat3 Rz = Eigen::AngleAxisd(sgn * phi, Vec3::UnitZ()).toRotationMatrix();
+      const Mat3 Ry = Eigen::AngleAxisd(th, Vec3::UnitY()).toRotationMatrix();
+      const Mat3 R = Rz * mirror * Ry;
+      const Vec3 omega = Vec3(0, 0, sgn * dphi) + Rz * mirror * Vec3(0, dth, 0) * (mirror.determinant());
+      return PartState{RigidTransform{R, hinge}, RigidVelocity{hinge, Vec3::Zero(), omega}};
+    });
+  }
+  const double build = seconds_since(t_build);
+  s.initialise([](double, double, double) { return Vec3(0.1, 0, 0); });
+  ib.attach(s);
+  VectorField u = s.velocity();
+  Field p = s.pressure();
+  const int calls = 24;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int c = 0; c < calls; ++c) {
+    ib.after_predictor(u, c / double(calls), 1e-3);
+    ib.after_projection(u, p, c / double(calls));
+  }
+  const double per_stage = seconds_since(t0) / calls;
+  std::printf("  IB cost, insect-like case on %d^3: level sets built in %.2f s, %.1f MB; per stage %.2f ms = %.2f ns per cell "
+              "(%.2f ns per cell per step of 3 stages); last stage %zu solid + %zu band faces\n",
+              n, build, ib.bytes() / 1e6, 1e3 * per_stage, 1e9 * per_stage / double(g.cells()),
+              3e9 * per_stage / double(g.cells()), ib.solid_faces(), ib.band_faces());
+}
+
 }  // namespace
