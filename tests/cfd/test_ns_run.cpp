@@ -290,6 +290,29 @@ TEST(CfdRun, VorticityOfTheInitialSwirl) {
   EXPECT_GT(qmax, 0.0);
 }
 
+// A steady body velocity V enters as the uniform stream -V through the box; without bodies it stays uniform.
+TEST(CfdRun, BodyVelocityIsAUniformStreamThroughTheBox) {
+  const Case c = cfd_case("stream.toml", tiny_keys);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.directory = fresh_dir("stream");
+  o.stop_after_steps = 20;  // a flow-field output every 20 steps (fields_per_cycle = 3, 60 steps per cycle)
+  BodyMotion m;
+  m.velocity = Vec3(1.5, -0.5, 0.25);  // flying forward, to the left and down
+  run_cfd(c, c.kinematics, m, o);
+  for (const char* f : {"/fields/fields_000000.h5", "/fields/fields_000020.h5"}) {
+    const StoredField u = read_field(o.directory + f, "velocity");
+    double worst = 0;
+    for (std::size_t n = 0; n < u.values.size() / 3; ++n)
+      worst = std::max(worst, (Vec3(u.values[3 * n], u.values[3 * n + 1], u.values[3 * n + 2]) + m.velocity).norm());
+    EXPECT_LT(worst, 1e-6) << f;  // float32 field files
+    const StoredField p = read_field(o.directory + f, "pressure");
+    double pmax = 0;
+    for (double x : p.values) pmax = std::max(pmax, std::abs(x));
+    EXPECT_LT(pmax, 1e-6) << f;
+  }
+}
+
 TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
   const std::string path = testing::write_temp("restart2.toml", cfd_case_text(tiny_keys));
   Case c = load_case(path);
