@@ -454,9 +454,14 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     for (auto it = list.rbegin(); it != list.rend() && !ck; ++it) {
       try {
         ck.emplace(it->second);
+        for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"})
+          if (!ck->contains(name)) throw InputError(it->second, name, "missing array", "a checkpoint of flapstab cfd");
+        if (!ck->header().values.count("guess")) throw InputError(it->second, "guess", "missing value", "a checkpoint of flapstab cfd");
         res.restarted_from = it->second;
       } catch (const std::exception& e) {
+        ck.reset();
         why = e.what();
+        if (log) *log << "  skipping " << it->second << ": " << e.what() << "\n";
       }
     }
     if (!ck) throw InputError(ckdir, "--restart", "no readable checkpoint (" + why + ")", "a directory of an earlier run");

@@ -313,6 +313,29 @@ TEST(CfdRun, BodyVelocityIsAUniformStreamThroughTheBox) {
   }
 }
 
+// A damaged newest checkpoint (a crash while it was renamed into place cannot leave one, a full disk can) is
+// skipped for the one before it; the result is still the uninterrupted run's.
+TEST(CfdRun, RestartSkipsADamagedCheckpoint) {
+  const Case c = cfd_case("damaged.toml", tiny_keys);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = swirl;
+  o.directory = fresh_dir("damaged_whole");
+  run_cfd(c, c.kinematics, BodyMotion{}, o);
+  CfdRunOptions a = o;
+  a.directory = fresh_dir("damaged");
+  a.stop_after_steps = 25;
+  run_cfd(c, c.kinematics, BodyMotion{}, a);
+  const std::string newest = a.directory + "/checkpoints/checkpoint_000000020.h5";
+  fs::resize_file(newest, fs::file_size(newest) / 2);
+  a.stop_after_steps = 0;
+  a.restart = true;
+  a.initial_velocity = {};
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, a);
+  EXPECT_EQ(r.start_step, 10);
+  EXPECT_EQ(read_text(o.directory + "/forces.csv"), read_text(a.directory + "/forces.csv"));
+}
+
 TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
   const std::string path = testing::write_temp("restart2.toml", cfd_case_text(tiny_keys));
   Case c = load_case(path);
