@@ -21,9 +21,7 @@
 #include "core/atomic_write.hpp"
 #include "core/configuration.hpp"
 #include "core/errors.hpp"
-#if FLAPSTAB_HAVE_IMMERSED
 #include "cfd/navier_stokes/immersed.hpp"
-#endif
 
 namespace flapstab::ns {
 
@@ -182,10 +180,10 @@ std::string fmt_seconds(double s) {
   return fmt::format("{:.2f} h", s / 3600);
 }
 
-// Adapter over the immersed boundary (absent when the build has no immersed.cpp).
+// The insect in the immersed boundary: three parts moved by the kinematics and the body motion; loads by the
+// method [aero.cfd] loads names.
 class Bodies {
  public:
-#if FLAPSTAB_HAVE_IMMERSED
   Bodies(const Grid& grid, double rho, const std::vector<TriangleMesh>& reference, const Configuration& config,
          const BodyMotion& motion, bool exchange)
       : ib_(grid, ImmersedOptions{.density = rho}), exchange_(exchange) {
@@ -204,18 +202,10 @@ class Bodies {
   }
   TriangleMesh surface(int part, double t) const { return ib_.surface(part, t); }
   SurfacePressure pressure(const Solver& s, int part) const { return ib_.surface_pressure(s, part); }
-  static bool available() { return true; }
 
  private:
   ImmersedBoundary ib_;
   bool exchange_;
-#else
-  // Never constructed: run_cfd refuses bodies first.
-  Bodies(const Grid&, double, const std::vector<TriangleMesh>&, const Configuration&, const BodyMotion&, bool) {}
-  void attach(Solver&) {}
-  std::size_t bytes() const { return 0; }
-  static bool available() { return false; }
-#endif
 };
 
 }  // namespace
@@ -473,9 +463,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                        "the case file of the interrupted run, unchanged");
   }
 
-  if (o.bodies && !Bodies::available())
-    throw InputError(c.path, "aero.model", "this build has no immersed-boundary solver (cfd/navier_stokes/immersed.cpp)",
-                     "\"quasi-steady\"");
 
   // Grid, boundaries, solver.
   Grid grid(Axis::stretched(plan.axes[0], false), Axis::stretched(plan.axes[1], false),
@@ -635,7 +622,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                    CellField{"q_criterion", "1/s^2", {arr(cf.q)}}});
   };
   auto write_surfaces = [&] {
-#if FLAPSTAB_HAVE_IMMERSED
     if (!write || !bodies) return;
     if (!surf_writer) surf_writer.emplace(o.directory + "/surfaces", "surfaces");
     std::vector<TriangleMesh> meshes;
@@ -649,7 +635,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
       parts.push_back(std::move(part));
     }
     surf_writer->write(solver.time(), step, parts);
-#endif
   };
   auto crossed = [&](int per_cycle, double ta, double tb) {
     if (per_cycle <= 0) return false;
@@ -707,7 +692,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     row.step = step;
     row.phase = tb / plan.period - std::floor(tb / plan.period + 1e-12);
     if (row.phase < 0) row.phase = 0;
-#if FLAPSTAB_HAVE_IMMERSED
     if (bodies) {
       const auto loads = bodies->loads(solver);
       const Mat3 Rt = body_rotation(motion, tb).rotation.transpose();
@@ -727,7 +711,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
         }
       }
     }
-#endif
     // Divergence checks.
     bool finite = std::isfinite(solver.kinetic_energy()) && std::isfinite(row.wing_power);
     for (const auto& q : row.part)
