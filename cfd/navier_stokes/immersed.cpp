@@ -542,11 +542,6 @@ struct ImmersedBoundary::Impl {
     return wsum > 0 ? v / wsum : sample(grid, pr, -1, x);
   }
 
-  Vec3 acceleration(const Part& p, const Vec3& c_ref, double t) const {
-    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
-    const PartState a = p.motion(t + e), b = p.motion(t - e);
-    return (a.velocity.at(a.pose.apply(c_ref)) - b.velocity.at(b.pose.apply(c_ref))) / (2 * e);
-  }
 
   // Visits every triangle and wetted side of part ip at the solver's time: (triangle, side, surface point,
   // side normal, area, kinematic wall pressure, viscous traction per unit nu, wall velocity).
@@ -555,6 +550,10 @@ struct ImmersedBoundary::Impl {
     const Part& p = parts[std::size_t(ip)];
     const double t = sv.time();
     const PartState st = p.motion(t);
+    // Surface acceleration: centred difference of the material point's velocity (step: a fraction of the last
+    // stage, or 1e-6 of the time scale before any step).
+    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
+    const PartState sp = p.motion(t + e), sm = p.motion(t - e);
     const VectorField& u = sv.velocity();
     const Field& pr = sv.pressure();
     const int sides = p.mesh.membrane ? 2 : 1;
@@ -562,7 +561,8 @@ struct ImmersedBoundary::Impl {
       const Vec3 x = st.pose.apply(p.centroid[tri]);
       const Vec3 n = st.pose.rotation * p.normal[tri];
       const double h = local_width(grid, x);
-      const Vec3 a = acceleration(p, p.centroid[tri], t);
+      const Vec3& c = p.centroid[tri];
+      const Vec3 a = (sp.velocity.at(sp.pose.apply(c)) - sm.velocity.at(sm.pose.apply(c))) / (2 * e);
       for (int side = 0; side < sides; ++side) {
         const Vec3 ns = side == 0 ? n : Vec3(-n);
         const Vec3 xs = p.mesh.membrane ? Vec3(x + opt.membrane_half_thickness * h * ns) : x;  // effective surface
@@ -572,13 +572,13 @@ struct ImmersedBoundary::Impl {
         // dp/dn = -a.n (kinematic) at the wall, p(d) = p_w - (a.n) d + c d^2.
         const double p1 = sample_fluid_pressure(pr, p, st.pose, x1), p2 = sample_fluid_pressure(pr, p, st.pose, x2);
         const double slope = -a.dot(ns);
-        const double c = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
-        const double pwall = p1 - slope * d1 - c * d1 * d1;
+        const double curv = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
+        const double pwall = p1 - slope * d1 - curv * d1 * d1;
         Vec3 w1, w2;
         const Vec3 v1 = st.velocity.at(x1), v2 = st.velocity.at(x2);
-        for (int c = 0; c < 3; ++c) {
-          w1[c] = sample(grid, u[c], c, x1) - v1[c];
-          w2[c] = sample(grid, u[c], c, x2) - v2[c];
+        for (int d = 0; d < 3; ++d) {
+          w1[d] = sample(grid, u[d], d, x1) - v1[d];
+          w2[d] = sample(grid, u[d], d, x2) - v2[d];
         }
         const Vec3 g = (d2 * d2 * w1 - d1 * d1 * w2) / (d1 * d2 * (d2 - d1));
         f(tri, side, x, ns, p.area[tri], pwall, g, st.velocity.at(x));

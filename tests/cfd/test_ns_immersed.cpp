@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <random>
+#include <stdexcept>
 #include "cfd/navier_stokes/immersed.hpp"
 #include "cfd/navier_stokes/mesh_query.hpp"
 
@@ -118,6 +119,22 @@ TEST(ImmersedLevelSet, MatchesMeshDistance) {
   // The plate's distance is piecewise linear except near its edges (cylindrical there, radius >= the distance).
   EXPECT_LT(ep, hl * hl / (0.5 * h));
   EXPECT_LT(ib.bytes(), std::size_t(8) << 20);
+}
+
+// Clear errors: an open surface loaded as closed, and a lattice that would exceed 64 M points.
+TEST(ImmersedLevelSet, RejectsOpenClosedMeshesAndHugeLattices) {
+  const Grid g(Axis::uniform(-1, 1, 8, false), Axis::uniform(-1, 1, 8, false), Axis::uniform(-1, 1, 8, false));
+  ImmersedBoundary ib(g);
+  TriangleMesh open = plate_mesh(0.5, 4);
+  open.membrane = false;
+  EXPECT_THROW(ib.add_part(open, fixed_part()), std::invalid_argument);
+  std::vector<double> faces{-1.0};
+  for (int i = 1; i <= 8; ++i) faces.push_back(-1.0 + 1e-4 * i);  // one cell of 1e-4 m sets the lattice spacing
+  faces.push_back(1.0);
+  const Grid fine(Axis(faces, false), Axis::uniform(-1, 1, 8, false), Axis::uniform(-1, 1, 8, false));
+  ImmersedBoundary big(fine);
+  EXPECT_THROW(big.add_part(sphere_mesh(0.5, 6), fixed_part()), std::invalid_argument);
+  EXPECT_EQ(big.parts(), 0u);
 }
 
 // A sphere translating with the velocity of a uniform flow in a periodic box: the forcing imposes exactly the
