@@ -459,6 +459,9 @@ struct ImmersedBoundary::Impl {
       e.moment += x.cross(F);
       e.power -= F.dot(st.velocity.at(x));
       u = values[m];
+      // A periodic axis: face n+1 is face 1's image (the divergence of cell n reads it).
+      const Axis& ax = grid.axis[std::size_t(d)];
+      if (ax.periodic && I[d] == 1) ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size())) + ax.n * s.stride(d)] = values[m];
     }
     n_solid = solid;
     n_band = entries.size() - solid;
