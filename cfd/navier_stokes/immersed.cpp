@@ -436,6 +436,11 @@ struct ImmersedBoundary::Impl {
     std::vector<PartState> plus, minus;
     for (const Part& q : parts) plus.push_back(q.motion(t + eps)), minus.push_back(q.motion(t - eps));
     exchange.assign(parts.size(), Exchange{});
+    // Keys are unique (one entry per face), so the write-back runs in parallel; the sums are per thread.
+#pragma omp parallel if (entries.size() >= 4096)
+    {
+      std::vector<Exchange> mine(parts.size());
+#pragma omp for schedule(static) nowait
     for (std::size_t m = 0; m < entries.size(); ++m) {
       int d, i, j, k;
       decode(entries[m].key, d, i, j, k);
@@ -454,7 +459,7 @@ struct ImmersedBoundary::Impl {
       }
       Vec3 F = Vec3::Zero();
       F[d] = f;
-      Exchange& e = exchange[ip];
+      Exchange& e = mine[ip];
       e.force += F;
       e.moment += x.cross(F);
       e.power -= F.dot(st.velocity.at(x));
@@ -462,6 +467,13 @@ struct ImmersedBoundary::Impl {
       // A periodic axis: face n+1 is face 1's image (the divergence of cell n reads it).
       const Axis& ax = grid.axis[std::size_t(d)];
       if (ax.periodic && I[d] == 1) ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size())) + ax.n * s.stride(d)] = values[m];
+    }
+#pragma omp critical(flapstab_ib_exchange)
+      for (std::size_t ip = 0; ip < parts.size(); ++ip) {
+        exchange[ip].force += mine[ip].force;
+        exchange[ip].moment += mine[ip].moment;
+        exchange[ip].power += mine[ip].power;
+      }
     }
     n_solid = solid;
     n_band = entries.size() - solid;
