@@ -436,6 +436,11 @@ struct ImmersedBoundary::Impl {
     std::vector<PartState> plus, minus;
     for (const Part& q : parts) plus.push_back(q.motion(t + eps)), minus.push_back(q.motion(t - eps));
     exchange.assign(parts.size(), Exchange{});
+    // Keys are unique (one entry per face), so the write-back runs in parallel; the sums are per thread.
+#pragma omp parallel if (entries.size() >= 4096)
+    {
+      std::vector<Exchange> mine(parts.size());
+#pragma omp for schedule(static) nowait
     for (std::size_t m = 0; m < entries.size(); ++m) {
       int d, i, j, k;
       decode(entries[m].key, d, i, j, k);
@@ -454,11 +459,21 @@ struct ImmersedBoundary::Impl {
       }
       Vec3 F = Vec3::Zero();
       F[d] = f;
-      Exchange& e = exchange[ip];
+      Exchange& e = mine[ip];
       e.force += F;
       e.moment += x.cross(F);
       e.power -= F.dot(st.velocity.at(x));
       u = values[m];
+      // A periodic axis: face n+1 is face 1's image (the divergence of cell n reads it).
+      const Axis& ax = grid.axis[std::size_t(d)];
+      if (ax.periodic && I[d] == 1) ustar[d][std::ptrdiff_t(entries[m].key % std::int64_t(s.size())) + ax.n * s.stride(d)] = values[m];
+    }
+#pragma omp critical(flapstab_ib_exchange)
+      for (std::size_t ip = 0; ip < parts.size(); ++ip) {
+        exchange[ip].force += mine[ip].force;
+        exchange[ip].moment += mine[ip].moment;
+        exchange[ip].power += mine[ip].power;
+      }
     }
     n_solid = solid;
     n_band = entries.size() - solid;
@@ -542,11 +557,6 @@ struct ImmersedBoundary::Impl {
     return wsum > 0 ? v / wsum : sample(grid, pr, -1, x);
   }
 
-  Vec3 acceleration(const Part& p, const Vec3& c_ref, double t) const {
-    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
-    const PartState a = p.motion(t + e), b = p.motion(t - e);
-    return (a.velocity.at(a.pose.apply(c_ref)) - b.velocity.at(b.pose.apply(c_ref))) / (2 * e);
-  }
 
   // Visits every triangle and wetted side of part ip at the solver's time: (triangle, side, surface point,
   // side normal, area, kinematic wall pressure, viscous traction per unit nu, wall velocity).
@@ -555,6 +565,10 @@ struct ImmersedBoundary::Impl {
     const Part& p = parts[std::size_t(ip)];
     const double t = sv.time();
     const PartState st = p.motion(t);
+    // Surface acceleration: centred difference of the material point's velocity (step: a fraction of the last
+    // stage, or 1e-6 of the time scale before any step).
+    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
+    const PartState sp = p.motion(t + e), sm = p.motion(t - e);
     const VectorField& u = sv.velocity();
     const Field& pr = sv.pressure();
     const int sides = p.mesh.membrane ? 2 : 1;
@@ -562,7 +576,8 @@ struct ImmersedBoundary::Impl {
       const Vec3 x = st.pose.apply(p.centroid[tri]);
       const Vec3 n = st.pose.rotation * p.normal[tri];
       const double h = local_width(grid, x);
-      const Vec3 a = acceleration(p, p.centroid[tri], t);
+      const Vec3& c = p.centroid[tri];
+      const Vec3 a = (sp.velocity.at(sp.pose.apply(c)) - sm.velocity.at(sm.pose.apply(c))) / (2 * e);
       for (int side = 0; side < sides; ++side) {
         const Vec3 ns = side == 0 ? n : Vec3(-n);
         const Vec3 xs = p.mesh.membrane ? Vec3(x + opt.membrane_half_thickness * h * ns) : x;  // effective surface
@@ -572,13 +587,13 @@ struct ImmersedBoundary::Impl {
         // dp/dn = -a.n (kinematic) at the wall, p(d) = p_w - (a.n) d + c d^2.
         const double p1 = sample_fluid_pressure(pr, p, st.pose, x1), p2 = sample_fluid_pressure(pr, p, st.pose, x2);
         const double slope = -a.dot(ns);
-        const double c = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
-        const double pwall = p1 - slope * d1 - c * d1 * d1;
+        const double curv = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
+        const double pwall = p1 - slope * d1 - curv * d1 * d1;
         Vec3 w1, w2;
         const Vec3 v1 = st.velocity.at(x1), v2 = st.velocity.at(x2);
-        for (int c = 0; c < 3; ++c) {
-          w1[c] = sample(grid, u[c], c, x1) - v1[c];
-          w2[c] = sample(grid, u[c], c, x2) - v2[c];
+        for (int d = 0; d < 3; ++d) {
+          w1[d] = sample(grid, u[d], d, x1) - v1[d];
+          w2[d] = sample(grid, u[d], d, x2) - v2[d];
         }
         const Vec3 g = (d2 * d2 * w1 - d1 * d1 * w2) / (d1 * d2 * (d2 - d1));
         f(tri, side, x, ns, p.area[tri], pwall, g, st.velocity.at(x));

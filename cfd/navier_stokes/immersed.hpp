@@ -9,15 +9,18 @@
 //    forced face). A moving part maps grid points into its reference frame and interpolates: no per-step
 //    mesh search.
 //  - After each Runge-Kutta predictor, faces inside a part (phi < 0) take the part's rigid velocity; fluid
-//    faces within one local cell width of it (the interface band) take the value interpolated linearly along
-//    the normal between the surface (part velocity) and a probe point in the fluid (Fadlun et al. 2000,
-//    J Comput Phys 161:35; Balaras 2004, Comput Fluids 33:375). The whole solid moves with the part, so a face
-//    that leaves it (a fresh cell) already holds the part's velocity: no force spike.
+//    faces within one local cell width of it (the interface band) take the value interpolated along the normal
+//    (quadratic through the surface point, at the part's velocity, and two probe points in the fluid) (Fadlun
+//    et al. 2000, J Comput Phys 161:35; Balaras 2004, Comput Fluids 33:375). The whole solid moves with the
+//    part, so a face that leaves it (a fresh cell) already holds the part's velocity; after each projection
+//    the pressure of fully forced cells near the surface is replaced by the fluid's, extended along the
+//    normal, so an uncovered cell brings no stale pressure into the fluid: no force spike.
 //  - Loads: per surface triangle and per wetted side (both sides of a membrane), pressure and wall-relative
 //    velocity are sampled at probe points along the normal; pressure is carried to the surface with the
 //    wall-normal momentum balance dp/dn = -rho a.n, the viscous traction is mu d(u - V)/dn from a one-sided
 //    second-order difference. Sums give force, moment about a point and power per part, split into pressure
-//    and viscous parts.
+//    and viscous parts. The probes sit 1.5-2.5 cells out, so on coarse grids this under-reads the wall layer;
+//    exchange_loads() gives the momentum exchanged by the forcing instead (accurate on coarse grids).
 #pragma once
 #include <functional>
 #include <memory>
@@ -42,8 +45,8 @@ struct ImmersedOptions {
   double density = 1.0;                  // kg/m^3: loads are density times the kinematic ones
   double membrane_half_thickness = 0.6;  // local cell widths
   double lattice_refinement = 2.0;       // lattice spacing = finest local grid spacing / this
-  double probe_near = 1.5;               // probe distances from the surface, local cell widths
-  double probe_far = 2.5;
+  double probe_near = 1.5;               // probe distances, local cell widths: loads from the (effective) surface,
+  double probe_far = 2.5;                // the band's quadratic from the forced face
 };
 
 // Loads of one part on the fluid's side: force and moment the fluid exerts on the part (grid axes).
