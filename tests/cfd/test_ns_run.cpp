@@ -10,6 +10,7 @@
 
 #include "cfd/navier_stokes/io_hdf5.hpp"
 #include "cfd/navier_stokes/run.hpp"
+#include "common/expect_error.hpp"
 #include "common/case_text.hpp"
 #include "core/configuration.hpp"
 #include "cfd/navier_stokes/geometry.hpp"
@@ -111,14 +112,9 @@ TEST(CfdPlan, BodyRotationWidensTheSweptVolume) {
 
 TEST(CfdPlan, PartOutsideTheDomainIsAnInputErrorNamingTheMargin) {
   const Case c = cfd_case("out.toml", "fine_margin_R = 0\nbelow_R = 0\n");
-  try {
-    plan_cfd(c, c.kinematics, BodyMotion{});
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.key(), "aero.cfd.below_R");
-    EXPECT_EQ(e.file(), c.path);
-    EXPECT_NE(std::string(e.what()).find("leaves the domain"), std::string::npos);
-  }
+  const std::string what =
+      testing::expect_input_error([&] { plan_cfd(c, c.kinematics, BodyMotion{}); }, "aero.cfd.below_R", c.path);
+  EXPECT_NE(what.find("leaves the domain"), std::string::npos);
   // Enough margin on that face: fine.
   const Case ok = cfd_case("out2.toml", "fine_margin_R = 0\nbelow_R = 0.5\n");
   EXPECT_NO_THROW(plan_cfd(ok, ok.kinematics, BodyMotion{}));
@@ -126,20 +122,10 @@ TEST(CfdPlan, PartOutsideTheDomainIsAnInputErrorNamingTheMargin) {
 
 TEST(CfdPlan, UnderResolvedChordIsAnErrorBelowFourCellsAndAWarningBelowEight) {
   const Case bad = cfd_case("chord3.toml", "cells_per_chord = 3\n");
-  try {
-    plan_cfd(bad, bad.kinematics, BodyMotion{});
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.key(), "aero.cfd.cells_per_chord");
-  }
+  testing::expect_input_error([&] { plan_cfd(bad, bad.kinematics, BodyMotion{}); }, "aero.cfd.cells_per_chord");
   // By wing length: R / 8 is 2.8 cells per chord for this moth (c / R = 0.35).
   const Case bad2 = cfd_case("chordR.toml", "cells_per_wing_length = 8\n");
-  try {
-    plan_cfd(bad2, bad2.kinematics, BodyMotion{});
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.key(), "aero.cfd.cells_per_wing_length");
-  }
+  testing::expect_input_error([&] { plan_cfd(bad2, bad2.kinematics, BodyMotion{}); }, "aero.cfd.cells_per_wing_length");
   const Case rough = cfd_case("chord6.toml", "cells_per_chord = 6\n");
   const CfdPlan p = plan_cfd(rough, rough.kinematics, BodyMotion{});
   ASSERT_EQ(p.warnings.size(), 1u);

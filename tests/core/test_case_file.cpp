@@ -1,5 +1,6 @@
 // Tests for core/case_file: a valid case loads; each kind of bad input names the file and the key.
 #include <gtest/gtest.h>
+#include "common/expect_error.hpp"
 #include "common/case_text.hpp"
 #include "core/case_file.hpp"
 #include "core/errors.hpp"
@@ -36,14 +37,8 @@ class CaseFileBad : public ::testing::TestWithParam<BadCase> {};
 TEST_P(CaseFileBad, NamesFileAndKey) {
   const BadCase b = GetParam();
   const std::string path = write_temp(std::string(b.label) + ".toml", replace(valid_case_text(), b.from, b.to));
-  try {
-    load_case(path);
-    FAIL() << "no error for " << b.label;
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.key(), b.key) << e.what();
-    EXPECT_NE(std::string(e.what()).find("expected"), std::string::npos) << e.what();
-  }
+  const std::string what = testing::expect_input_error([&] { load_case(path); }, b.key, path);
+  EXPECT_NE(what.find("expected"), std::string::npos) << b.label << ": " << what;
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -1,5 +1,6 @@
 // Tests for core/case_file, [aero.cfd]: defaults, every key's type and range checks, unknown keys.
 #include <gtest/gtest.h>
+#include "common/expect_error.hpp"
 #include "common/case_text.hpp"
 #include "core/case_file.hpp"
 #include "core/errors.hpp"
@@ -76,14 +77,8 @@ class CaseFileCfdBad : public ::testing::TestWithParam<BadCfd> {};
 TEST_P(CaseFileCfdBad, NamesFileAndKey) {
   const BadCfd b = GetParam();
   const std::string path = write_temp(std::string("cfd_") + b.label + ".toml", with_cfd(b.keys));
-  try {
-    load_case(path);
-    FAIL() << "no error for " << b.label;
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.key(), b.key) << e.what();
-    EXPECT_NE(std::string(e.what()).find("expected"), std::string::npos) << e.what();
-  }
+  const std::string what = testing::expect_input_error([&] { load_case(path); }, b.key, path);
+  EXPECT_NE(what.find("expected"), std::string::npos) << b.label << ": " << what;
 }
 
 INSTANTIATE_TEST_SUITE_P(
