@@ -853,7 +853,19 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   c.insect = insect;
   CfdRunOptions o;
   o.cycles = std::max(1, options.cycles);
+  const int run = ++runs_;
+  if (log_)
+    *log_ << fmt::format("cfd model: run {} ({} wingbeats), body velocity ({:.4g}, {:.4g}, {:.4g}) m/s, rates "
+                         "({:.4g}, {:.4g}, {:.4g}) rad/s ...\n",
+                         run, o.cycles, motion.velocity.x(), motion.velocity.y(), motion.velocity.z(),
+                         motion.rate.x(), motion.rate.y(), motion.rate.z())
+          << std::flush;
+  const auto t0 = std::chrono::steady_clock::now();
   const CfdResult r = run_cfd(c, kin, motion, o);
+  if (log_)
+    *log_ << fmt::format("cfd model: run {} done in {:.1f} s\n", run,
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+          << std::flush;
   const double T = r.plan.period, start = (r.plan.cycles - 1) * T;
   if (r.last_cycle.empty() || r.last_cycle.back().time - start < 1e-9 * T)
     throw SolveError("cfd model: the run produced no loads");

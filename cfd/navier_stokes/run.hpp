@@ -16,6 +16,8 @@
 //  - Three immersed parts (body, right wing, left wing) from InsectSurfaces, moved by the kinematics composed
 //    with the body's rotation.
 #pragma once
+#include <atomic>
+#include <iostream>
 #include <functional>
 #include <iosfwd>
 #include <string>
@@ -104,16 +106,20 @@ std::string forces_csv_row(const CfdLoadRow& r);
 // The inverse of forces_csv_row (without its newline); std::invalid_argument for a malformed row.
 CfdLoadRow parse_forces_csv_row(const std::string& line);
 
-// The AeroModel over the driver: runs options.cycles wingbeats in memory and returns the last one.
+// The AeroModel over the driver: runs options.cycles wingbeats in memory and returns the last one. Every run is
+// a whole CFD run (minutes): trim and derivatives call it tens of times, so each run announces itself and its
+// wall time on `log` (std::cerr by default; nullptr: silent).
 class CfdModel final : public AeroModel {
  public:
-  explicit CfdModel(Case c) : case_(std::move(c)) {}
+  explicit CfdModel(Case c, std::ostream* log = &std::cerr) : case_(std::move(c)), log_(log) {}
   std::string name() const override { return "navier-stokes-ib"; }
   WrenchHistory run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
                     const AeroRunOptions& options) const override;
 
  private:
   Case case_;
+  std::ostream* log_;
+  mutable std::atomic<int> runs_{0};
 };
 
 }  // namespace flapstab::ns

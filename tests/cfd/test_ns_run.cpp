@@ -478,7 +478,7 @@ TEST(CfdRunImmersed, CfdModelReturnsTheLastCycleAboutO) {
   text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
                           "sin_deg = [-10.0]");
   Case c = load_case(testing::write_temp("moth_model.toml", text));
-  const CfdModel model(c);
+  const CfdModel model(c, nullptr);
   AeroRunOptions ro;
   ro.cycles = 1;
   ro.samples_per_cycle = 20;
