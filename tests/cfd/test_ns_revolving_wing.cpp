@@ -2,10 +2,10 @@
 // "Revolving wing (Robofly)"; spec docs: CFD.md, Validation, "Flapping wing".
 //
 // Reference (REFERENCE.md, "Quasi-steady coefficients"): Dickinson, Lehmann & Sane 1999 (Science 284:1954),
-// the dynamically scaled fruit-fly wing ("Robofly": a 0.25 m Plexiglas wing in mineral oil, density 880 kg/m^3,
-// kinematic viscosity about 115 cSt) revolved at constant angular velocity and constant angle of attack through a
-// 180 degree sweep; the translational lift and drag coefficients of the steady middle part of the sweep were
-// fitted as (alpha in degrees)
+// the dynamically scaled fruit-fly wing ("Robofly": a 0.25 m Plexiglas wing in mineral oil, density 880 kg/m^3;
+// the oil's viscosity, about 115 cSt, and a 180 degree constant-speed sweep are recalled, NOT confirmed in the
+// searchable sources) revolved at constant angular velocity and constant angle of attack; the translational lift
+// and drag coefficients of the steady middle part of the sweep were fitted as (alpha in degrees)
 //     C_L = 0.225 + 1.58 sin(2.13 alpha - 7.20),   C_D = 1.92 - 1.55 cos(2.04 alpha - 9.82).
 // The quasi-steady model these fits feed (Dickinson et al. 1999; Sane & Dickinson 2001, J Exp Biol 204:2607) is
 // F = 1/2 rho C U_tip^2 S r2^2 with r2 the non-dimensional radius of the second moment of area, i.e.
@@ -28,8 +28,8 @@
 // momentum exchange of the forcing (exchange_loads: the accurate estimate on coarse grids, docs/validation.md,
 // "Immersed boundary"); the surface integral is printed, not asserted. Coefficients are averaged over the
 // window 60-120 degrees of revolution (about 2-4 mean chords of travel at r2, after the start-up transient
-// and while the leading-edge vortex stays attached; Dickinson's fits are from mid-stroke of a 180 degree
-// sweep, 3-4 chords of travel at r2).
+// and while the leading-edge vortex stays attached; Dickinson's fits are from mid-stroke of a sweep of,
+// as recalled and not confirmed, 180 degrees: 3-4 chords of travel at r2).
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 #include <chrono>
