@@ -40,7 +40,7 @@ std::unique_ptr<FlappingCase> hawkmoth() {
   f->config = std::make_unique<flapstab::Configuration>(f->c.insect, f->c.kinematics);
   MeshResolution res;
   f->surfaces = std::make_unique<InsectSurfaces>(*f->config, res);
-  const double R = f->c.insect.right.length, cbar = f->c.insect.right.mean_chord, T = f->c.kinematics.period();
+  const double R = f->c.insect.wing.length, cbar = f->c.insect.wing.mean_chord, T = f->c.kinematics.period();
   BoundingBox swept;
   for (int n = 0; n < 32; ++n)
     for (const auto& part : f->surfaces->at(T * n / 32)) {
