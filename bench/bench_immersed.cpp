@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include "bench/step_timing.hpp"
 #include "cfd/navier_stokes/immersed.hpp"
 #include "core/case_file.hpp"
 #include "core/configuration.hpp"
@@ -19,10 +20,6 @@ namespace {
 
 using namespace flapstab::ns;
 using flapstab::Vec3;
-
-// Per-step traffic of the body-free kernels (bench_navier_stokes.cpp): 3 stages x 240 + 24 bytes, plus 217 bytes
-// per Poisson iteration less 40 for each stage's first iteration.
-constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40;
 
 struct FlappingCase {
   flapstab::Case c;
@@ -73,9 +70,9 @@ std::unique_ptr<FlappingCase> hawkmoth() {
   io.density = f->c.fluid.density;
   f->ib = std::make_unique<ImmersedBoundary>(f->solver->grid(), io);
   for (int k = 0; k < 3; ++k) {
-    const InsectSurfaces* s = f->surfaces.get();
-    f->ib->add_part(f->surfaces->reference()[std::size_t(k)], [s, k](double t) {
-      const MeshPart p = s->at(t)[std::size_t(k)];
+    const flapstab::Configuration* config = f->config.get();
+    f->ib->add_part(f->surfaces->reference()[std::size_t(k)], [config, k](double t) {
+      const PartPose p = insect_part_poses(*config, t)[std::size_t(k)];
       return PartState{p.pose, p.motion};
     });
   }
@@ -89,23 +86,8 @@ void BM_FlappingHawkmothStep(benchmark::State& state) {
   auto f = hawkmoth();
   Solver& s = *f->solver;
   for (int k = 0; k < 10; ++k) s.step();  // leave the impulsive start
-  const double cells = double(s.grid().cells());
-  double seconds = 0, iterations = 0;
-  std::int64_t steps = 0;
-  for (auto _ : state) {
-    const auto t0 = std::chrono::steady_clock::now();
-    s.step();
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    ++steps;
-    for (const auto& st : s.poisson_stats()) iterations += st.cycles;
-  }
-  const double per_step = iterations / steps;
-  const double bytes = 3 * stage_bytes + step_bytes + per_step * iteration_bytes - 3 * first_iteration_saving;
-  state.counters["cells"] = cells;
-  state.counters["ns_per_cell_step"] = seconds * 1e9 / (steps * cells);
-  state.counters["poisson_iterations_per_step"] = per_step;
-  state.counters["bytes_per_cell_step"] = bytes;
-  state.counters["implied_GB_per_s"] = bytes * steps * cells / seconds / 1e9;
+  flapstab::bench::time_steps(state, s);
+  state.counters["cells"] = double(s.grid().cells());
   state.counters["forced_faces"] = double(f->ib->solid_faces() + f->ib->band_faces());
   state.counters["memory_MB"] = double(s.bytes() + f->ib->bytes()) / 1e6;
 }

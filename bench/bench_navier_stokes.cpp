@@ -8,6 +8,7 @@
 #include <omp.h>
 #include <chrono>
 #include <cmath>
+#include "bench/step_timing.hpp"
 #include "cfd/navier_stokes/solver.hpp"
 
 namespace {
@@ -15,16 +16,6 @@ namespace {
 using namespace flapstab::ns;
 using flapstab::pi;
 using flapstab::Vec3;
-
-// Bytes each kernel moves per cell (write-allocate not counted, as in STREAM). Per RK3 stage: predictor (read u, v,
-// w, p, N_prev; write N_prev, u*) 104; divergence (read u*, write b) 32; mean and max of b 8; residual of the
-// initial guess (read phi, b; write b) 24; projection (read u*, phi, p; write u, p) 72 -> 240. Per step: the
-// CFL pass (read u, v, w) 24. Per Poisson iteration, finest level: the single-precision V(2,2) cycle (first sweep
-// from zero reads r and writes b, x: 20; three sweeps reading x, b, 1/diag and writing x: 3 x 16; the final
-// colour also writes z in double: 8; restriction reads x, b: 8; prolongation reads and writes x: 8), coarse
-// levels +1/7 -> 105; conjugate-gradient vectors (<z, q>: 16; p = z + beta p: 24; q = L p with <p, q>, <p, r>:
-// 24; x and r update: 48) 112; the first iteration of a solve has no <z, q> and no p update (-40).
-constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40;
 
 // 3D Taylor-Green vortex (Brachet et al. 1983), Re = 1600 on the box scale: u = sin x cos y cos z,
 // v = -cos x sin y cos z, w = 0 in [0, 2 pi]^3; adaptive step at CFL 1.
@@ -45,22 +36,7 @@ void BM_TaylorGreenStep(benchmark::State& state) {
   omp_set_num_threads(threads);
   Solver s = taylor_green(n);
   for (int k = 0; k < 10; ++k) s.step();  // leave the start-up (no initial guess yet, pressure adjusting)
-  const double cells = double(s.grid().cells());
-  double seconds = 0, iterations = 0;
-  std::int64_t steps = 0;
-  for (auto _ : state) {
-    const auto t0 = std::chrono::steady_clock::now();
-    s.step();
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    ++steps;
-    for (const auto& st : s.poisson_stats()) iterations += st.cycles;
-  }
-  const double per_step = iterations / steps;
-  const double bytes = 3 * stage_bytes + step_bytes + per_step * iteration_bytes - 3 * first_iteration_saving;
-  state.counters["ns_per_cell_step"] = seconds * 1e9 / (steps * cells);
-  state.counters["poisson_iterations_per_step"] = per_step;
-  state.counters["bytes_per_cell_step"] = bytes;
-  state.counters["implied_GB_per_s"] = bytes * steps * cells / seconds / 1e9;
+  flapstab::bench::time_steps(state, s);
   state.counters["memory_MB"] = double(s.bytes()) / 1e6;
 }
 BENCHMARK(BM_TaylorGreenStep)
@@ -96,7 +72,7 @@ void BM_PoissonIteration(benchmark::State& state) {
   }
   const double cells = double(g.cells());
   state.counters["ns_per_cell_iteration"] = seconds * 1e9 / (its * cells);
-  state.counters["implied_GB_per_s"] = iteration_bytes * its * cells / seconds / 1e9;
+  state.counters["implied_GB_per_s"] = flapstab::bench::iteration_bytes * its * cells / seconds / 1e9;
 }
 BENCHMARK(BM_PoissonIteration)->Args({128, 1})->Args({128, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 

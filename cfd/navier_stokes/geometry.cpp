@@ -319,16 +319,26 @@ InsectSurfaces::InsectSurfaces(const Configuration& config, const MeshResolution
   reference_ = {std::move(body), std::move(right), std::move(left)};
 }
 
-std::vector<MeshPart> InsectSurfaces::at(double t) const {
-  std::vector<MeshPart> parts(3);
-  parts[0].pose = RigidTransform{config_.anatomical_to_stability(), config_.body_centre()};
+std::array<PartPose, 3> insect_part_poses(const Configuration& config, double t) {
+  std::array<PartPose, 3> p;
+  p[0].pose = RigidTransform{config.anatomical_to_stability(), config.body_centre()};
   for (Side s : {Side::right, Side::left}) {
-    const WingPose p = config_.wing_pose(s, t);
-    MeshPart& part = parts[s == Side::right ? 1 : 2];
-    part.pose = wing_transform(p);
-    part.motion = wing_velocity(p);
+    const WingPose w = config.wing_pose(s, t);
+    PartPose& q = p[s == Side::right ? 1 : 2];
+    q.pose = wing_transform(w);
+    q.motion = wing_velocity(w);
   }
-  for (std::size_t i = 0; i < parts.size(); ++i) parts[i].mesh = reference_[i].transformed(parts[i].pose);
+  return p;
+}
+
+std::vector<MeshPart> InsectSurfaces::at(double t) const {
+  const std::array<PartPose, 3> poses = insect_part_poses(config_, t);
+  std::vector<MeshPart> parts(3);
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    parts[i].pose = poses[i].pose;
+    parts[i].motion = poses[i].motion;
+    parts[i].mesh = reference_[i].transformed(parts[i].pose);
+  }
   return parts;
 }
 

@@ -98,6 +98,15 @@ struct MeshResolution {
   int wing_chord = 10;  // chordwise divisions per wing
 };
 
+// Where a part of the insect is at an instant relative to its body: reference frame -> S, and its velocity
+// relative to the body frame (zero for the body).
+struct PartPose {
+  RigidTransform pose;
+  RigidVelocity motion;
+};
+// Body, right wing, left wing (the order of InsectSurfaces::at), without moving any mesh.
+std::array<PartPose, 3> insect_part_poses(const Configuration& config, double t);
+
 // One rigid part of the insect at an instant, in stability axes S (origin O, m).
 struct MeshPart {
   TriangleMesh mesh;            // label "body", "right" or "left"

@@ -39,24 +39,6 @@ RigidTransform body_rotation(const BodyMotion& m, double t) {
   return b;
 }
 
-// Pose of each part relative to the body (reference frame -> S) and its velocity relative to the body.
-struct RelativePart {
-  RigidTransform pose;
-  RigidVelocity motion;
-};
-
-std::array<RelativePart, 3> relative_parts(const Configuration& config, double t) {
-  std::array<RelativePart, 3> p;
-  p[0].pose = RigidTransform{config.anatomical_to_stability(), config.body_centre()};
-  for (Side s : {Side::right, Side::left}) {
-    const WingPose w = config.wing_pose(s, t);
-    RelativePart& q = p[s == Side::right ? 1 : 2];
-    q.pose = wing_transform(w);
-    q.motion = wing_velocity(w);
-  }
-  return p;
-}
-
 // Part i in grid axes: the body's rotation composed with the part's motion relative to the body.
 struct GridPart {
   RigidTransform pose;
@@ -64,7 +46,7 @@ struct GridPart {
   RigidVelocity relative;          // motion relative to the body, expressed in grid axes
 };
 
-GridPart grid_part(const RelativePart& r, const BodyMotion& m, double t) {
+GridPart grid_part(const PartPose& r, const BodyMotion& m, double t) {
   const RigidTransform b = body_rotation(m, t);
   GridPart g;
   g.pose = b * r.pose;
@@ -189,7 +171,7 @@ class Bodies {
       : ib_(grid, ImmersedOptions{.density = rho}), exchange_(exchange) {
     for (int i = 0; i < 3; ++i) {
       PartMotion m = [&config, motion, i](double t) {
-        const GridPart g = grid_part(relative_parts(config, t)[std::size_t(i)], motion, t);
+        const GridPart g = grid_part(insect_part_poses(config, t)[std::size_t(i)], motion, t);
         return PartState{g.pose, g.velocity};
       };
       ib_.add_part(reference[std::size_t(i)], std::move(m));
@@ -242,7 +224,7 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion,
   BoundingBox box;
   for (int k = 0; k <= samples; ++k) {
     const double t = span * k / samples;
-    const auto rel = relative_parts(config, t);
+    const auto rel = insect_part_poses(config, t);
     for (int i = 0; i < 3; ++i) {
       const GridPart g = grid_part(rel[std::size_t(i)], motion, t);
       for (const Vec3& v : ref[std::size_t(i)].vertices) {
@@ -279,21 +261,16 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion,
   // The immersed boundary's forcing band and probes reach about 4 fine cells beyond a surface: every part must
   // stay that far from the box faces over the whole run.
   const double clearance = 4 * p.h;
-  for (int d = 0; d < 3; ++d) {
-    const char axis = "xyz"[d];
-    if (p.swept_lo[d] - p.domain_lo[d] < clearance)
-      throw InputError(file, lo_key[d],
-                       fmt::format("a part comes within {:.3g} m of the domain's {}- face (the run needs {:.3g} m, "
-                                   "4 fine cells): the insect leaves the domain", p.swept_lo[d] - p.domain_lo[d],
-                                   axis, clearance),
-                       "a larger margin (this key or aero.cfd.fine_margin_R)");
-    if (p.domain_hi[d] - p.swept_hi[d] < clearance)
-      throw InputError(file, hi_key[d],
-                       fmt::format("a part comes within {:.3g} m of the domain's {}+ face (the run needs {:.3g} m, "
-                                   "4 fine cells): the insect leaves the domain", p.domain_hi[d] - p.swept_hi[d],
-                                   axis, clearance),
-                       "a larger margin (this key or aero.cfd.fine_margin_R)");
-  }
+  for (int d = 0; d < 3; ++d)
+    for (int side = 0; side < 2; ++side) {
+      const double gap = side == 0 ? p.swept_lo[d] - p.domain_lo[d] : p.domain_hi[d] - p.swept_hi[d];
+      if (gap < clearance)
+        throw InputError(file, (side == 0 ? lo_key : hi_key)[d],
+                         fmt::format("a part comes within {:.3g} m of the domain's {}{} face (the run needs {:.3g} m, "
+                                     "4 fine cells): the insect leaves the domain",
+                                     gap, "xyz"[d], side == 0 ? '-' : '+', clearance),
+                         "a larger margin (this key or aero.cfd.fine_margin_R)");
+    }
   // The fine box's actual spacing (the generator rounds the cell count up).
   double hmax = 0;
   for (int d = 0; d < 3; ++d) {
@@ -695,7 +672,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     if (bodies) {
       const auto loads = bodies->loads(solver);
       const Mat3 Rt = body_rotation(motion, tb).rotation.transpose();
-      const auto rel = relative_parts(config, tb);
+      const auto rel = insect_part_poses(config, tb);
       for (int i = 0; i < 3; ++i) {
         const PartLoads& L = loads[std::size_t(i)];
         auto& q = row.part[i];

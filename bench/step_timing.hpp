@@ -1,0 +1,41 @@
+// Timing of solver steps for the Navier-Stokes benchmarks, and the memory traffic model behind the bandwidth figure.
+#pragma once
+#include <benchmark/benchmark.h>
+#include <chrono>
+#include <cstdint>
+#include "cfd/navier_stokes/solver.hpp"
+
+namespace flapstab::bench {
+
+// Bytes each kernel moves per cell (write-allocate not counted, as in STREAM). Per RK3 stage: predictor (read u, v,
+// w, p, N_prev; write N_prev, u*) 104; divergence (read u*, write b) 32; mean and max of b 8; residual of the
+// initial guess (read phi, b; write b) 24; projection (read u*, phi, p; write u, p) 72 -> 240. Per step: the
+// CFL pass (read u, v, w) 24. Per Poisson iteration, finest level: the single-precision V(2,2) cycle (first sweep
+// from zero reads r and writes b, x: 20; three sweeps reading x, b, 1/diag and writing x: 3 x 16; the final
+// colour also writes z in double: 8; restriction reads x, b: 8; prolongation reads and writes x: 8), coarse
+// levels +1/7 -> 105; conjugate-gradient vectors (<z, q>: 16; p = z + beta p: 24; q = L p with <p, q>, <p, r>:
+// 24; x and r update: 48) 112; the first iteration of a solve has no <z, q> and no p update (-40).
+constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40;
+
+// Times one solver step per benchmark iteration and sets ns_per_cell_step, poisson_iterations_per_step,
+// bytes_per_cell_step (body-free kernels' traffic) and implied_GB_per_s.
+inline void time_steps(benchmark::State& state, ns::Solver& s) {
+  const double cells = double(s.grid().cells());
+  double seconds = 0, iterations = 0;
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    s.step();
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ++steps;
+    for (const auto& st : s.poisson_stats()) iterations += st.cycles;
+  }
+  const double per_step = iterations / double(steps);
+  const double bytes = 3 * stage_bytes + step_bytes + per_step * iteration_bytes - 3 * first_iteration_saving;
+  state.counters["ns_per_cell_step"] = seconds * 1e9 / (double(steps) * cells);
+  state.counters["poisson_iterations_per_step"] = per_step;
+  state.counters["bytes_per_cell_step"] = bytes;
+  state.counters["implied_GB_per_s"] = bytes * double(steps) * cells / seconds / 1e9;
+}
+
+}  // namespace flapstab::bench
