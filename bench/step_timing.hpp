@@ -14,26 +14,36 @@ namespace flapstab::bench {
 // from zero reads r and writes b, x: 20; three sweeps reading x, b, 1/diag and writing x: 3 x 16; the final
 // colour also writes z in double: 8; restriction reads x, b: 8; prolongation reads and writes x: 8), coarse
 // levels +1/7 -> 105; conjugate-gradient vectors (<z, q>: 16; p = z + beta p: 24; q = L p with <p, q>, <p, r>:
-// 24; x and r update: 48) 112; the first iteration of a solve has no <z, q> and no p update (-40).
-constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40;
+// 24; x and r update: 48) 112; the first iteration of a solve has no <z, q> and no p update (-40). A plain
+// multigrid iteration (PoissonOptions::stationary_factor) has instead one pass x += z, r -= L z (read x, r, z;
+// write x, r) 40 -> 145.
+constexpr double stage_bytes = 240, step_bytes = 24, iteration_bytes = 105 + 112, first_iteration_saving = 40,
+                 plain_iteration_bytes = 105 + 40;
 
-// Times one solver step per benchmark iteration and sets ns_per_cell_step, poisson_iterations_per_step,
+// Times one solver step per benchmark iteration and sets ns_per_cell_step, poisson_iterations_per_step (of which
+// plain_iterations_per_step),
 // bytes_per_cell_step (body-free kernels' traffic) and implied_GB_per_s.
 inline void time_steps(benchmark::State& state, ns::Solver& s) {
   const double cells = double(s.grid().cells());
-  double seconds = 0, iterations = 0;
+  double seconds = 0, iterations = 0, plain = 0, krylov_starts = 0;
   std::int64_t steps = 0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     s.step();
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ++steps;
-    for (const auto& st : s.poisson_stats()) iterations += st.cycles;
+    for (const auto& st : s.poisson_stats()) {
+      iterations += st.cycles;
+      plain += st.stationary;
+      krylov_starts += st.cycles > st.stationary ? 1 : 0;
+    }
   }
-  const double per_step = iterations / double(steps);
-  const double bytes = 3 * stage_bytes + step_bytes + per_step * iteration_bytes - 3 * first_iteration_saving;
+  const double per_step = iterations / double(steps), plain_per_step = plain / double(steps);
+  const double bytes = 3 * stage_bytes + step_bytes + plain_per_step * plain_iteration_bytes +
+                       (per_step - plain_per_step) * iteration_bytes - krylov_starts / double(steps) * first_iteration_saving;
   state.counters["ns_per_cell_step"] = seconds * 1e9 / (double(steps) * cells);
   state.counters["poisson_iterations_per_step"] = per_step;
+  state.counters["plain_iterations_per_step"] = plain_per_step;
   state.counters["bytes_per_cell_step"] = bytes;
   state.counters["implied_GB_per_s"] = bytes * double(steps) * cells / seconds / 1e9;
 }

@@ -96,6 +96,38 @@ FLAPSTAB_KERNEL double update(const Stencil<T>& L, int k, T* x, T* r, const T* p
   return m;
 }
 
+// x += z (x = z if first), r -= L z; returns max |r| of the plane.
+template <class T>
+FLAPSTAB_KERNEL double correct(const Stencil<T>& L, int k, T* x, T* r, const T* z, bool first) {
+  const Shape& s = L.s;
+  double m = 0;
+  for (int j = 1; j <= s.ny; ++j) {
+    const StencilRow<T> row(L, z, j, k);
+    const std::ptrdiff_t o = s(0, j, k);
+    T* __restrict xr = x + o;
+    T* __restrict rr = r + o;
+    const T* __restrict zr = z + o;
+    double rm = 0;
+    if (first) {
+#pragma omp simd reduction(max : rm)
+      for (int i = 1; i <= s.nx; ++i) {
+        xr[i] = zr[i];
+        rr[i] -= row.apply(i);
+        rm = std::max(rm, double(std::abs(rr[i])));
+      }
+    } else {
+#pragma omp simd reduction(max : rm)
+      for (int i = 1; i <= s.nx; ++i) {
+        xr[i] += zr[i];
+        rr[i] -= row.apply(i);
+        rm = std::max(rm, double(std::abs(rr[i])));
+      }
+    }
+    m = std::max(m, rm);
+  }
+  return m;
+}
+
 template <class T>
 FLAPSTAB_KERNEL double residual(const Stencil<T>& L, int k, const T* x, T* r) {
   const Shape& s = L.s;
@@ -176,6 +208,15 @@ double update(const Stencil<T>& L, T* x, T* r, const T* p, const T* q, T alpha, 
   double m = 0;
 #pragma omp parallel for schedule(static) reduction(max : m) num_threads(threads(L))
   for (int k = 1; k <= L.s.nz; ++k) m = std::max(m, plane::update(L, k, x, r, p, q, alpha, first));
+  return m;
+}
+
+// x += z (x = z if first), r -= L z (z's ghosts hold the boundary conditions); returns max |r|.
+template <class T>
+double correct(const Stencil<T>& L, T* x, T* r, const T* z, bool first) {
+  double m = 0;
+#pragma omp parallel for schedule(static) reduction(max : m) num_threads(threads(L))
+  for (int k = 1; k <= L.s.nz; ++k) m = std::max(m, plane::correct(L, k, x, r, z, first));
   return m;
 }
 

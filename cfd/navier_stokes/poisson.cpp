@@ -44,18 +44,33 @@ PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool 
     fill_ghosts(x, bc_);
     st.residual = st.initial_residual = krylov::residual(L_, x.data(), r.data());
   }
+  // Plain multigrid iterations (x += M r, r -= L M r: one fused pass after the V-cycle) while each cuts the
+  // residual at least `stationary_factor`-fold; from the first that does not, FCG takes over from (x, r).
+  bool krylov = opt.stationary_factor <= 0;
+  int fcg = 0;  // FCG iterations so far
   double pq = 1;
   while (st.residual > target && st.cycles < opt.max_cycles) {
+    const bool first = st.cycles == 0 && !guess;
     mg_.vcycle(r, z_, opt.pre_sweeps, opt.post_sweeps);
-    if (st.cycles == 0)
+    if (!krylov) {
+      fill_ghosts(z_, bc_);
+      const double before = st.residual;
+      st.residual = krylov::correct(L_, x.data(), r.data(), z_.data(), first);
+      ++st.cycles;
+      ++st.stationary;
+      if (st.residual > opt.stationary_factor * before) krylov = true;
+      continue;
+    }
+    if (fcg == 0)
       std::swap(p_, z_);
     else
       krylov::axpy_into(L_, z_.data(), -krylov::inner(L_, z_.data(), q_.data()) / pq, p_.data());
     fill_ghosts(p_, bc_);
     double pr;
     krylov::apply_and_dot(L_, p_.data(), q_.data(), r.data(), pq, pr);
-    st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), pr / pq, st.cycles == 0 && !guess);
+    st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), pr / pq, first);
     ++st.cycles;
+    ++fcg;
   }
   if (st.cycles == 0 && !guess) x.fill(0);
   st.converged = st.residual <= target;
