@@ -82,7 +82,7 @@ struct DickinsonOutline {
 
 // The outline as a closed polygon of n points in FLUSI's units (tip about 0.998 from the pivot).
 inline std::vector<std::array<double, 2>> dickinson_outline(int n = 4000) {
-  std::vector<std::array<double, 2>> p(std::size_t(n));
+  std::vector<std::array<double, 2>> p(static_cast<std::size_t>(n));
   for (int k = 0; k < n; ++k) {
     const double theta = double(k) / n, r = DickinsonOutline::radius(theta), ang = 2 * pi * theta - pi;
     p[std::size_t(k)] = {DickinsonOutline::xc + r * std::cos(ang), DickinsonOutline::yc + r * std::sin(ang)};
@@ -171,7 +171,7 @@ inline ns::TriangleMesh dickinson_wing_mesh(int n_span, int n_chord) {
 // The same planform as a flapstab Wing for the quasi-steady model (R = 1): tabulated chord (zero inboard of
 // the root, a step at the root), mean chord = area / R, and a single pitch-axis fraction, the area-weighted
 // mean of the pivot's local chordwise position from the leading edge (the model's one approximation here).
-inline Wing dickinson_wing(int n_span = 80) {
+inline Wing dickinson_wing(int n_span = 40) {
   const DickinsonPlanform d = dickinson_planform(n_span);
   double S = 0, Sx = 0;
   for (std::size_t j = 0; j + 1 < d.y.size(); ++j) {
