@@ -15,7 +15,8 @@
 // public quasi-steady codes carry the same constants, and use them with U at r2 or U_tip^2 r2^2 S); the Robofly
 // wing length 0.25 m and oil density 880 kg/m^3 (a Robofly analysis code). What is ASSUMED (not found in the
 // searchable corpora): the planform (Drosophila-like; modelled here as a full ellipse over 0 <= r <= R, which
-// gives r2/R = 0.56 close to the fly's 0.55-0.58), the aspect ratio R / c_bar = 3.74 (wing area about
+// gives r2/R = 0.56 close to the fly's 0.55-0.58; the converged 45-degree case is also run on the digitised
+// Robofly outline published with FLUSI, tests/common/robofly.hpp), the aspect ratio R / c_bar = 3.74 (wing area about
 // 0.0167 m^2 for R = 0.25 m, as recalled from Sane & Dickinson 2001), no root offset, and the Reynolds number:
 // the Robofly range is Re = 100-200; we use Re = U(r2) c_bar / nu = 136 (the value quoted for Dickinson et
 // al.'s hovering kinematics; for a revolving wing the coefficients depend weakly on Re in this range).
