@@ -286,6 +286,11 @@ TriangleMesh wing_mesh(const Wing& wing, int n_span, int n_chord) {
     }
     rows.push_back(std::move(row));
   }
+  triangulate_rows(m, rows);
+  return m;
+}
+
+void triangulate_rows(TriangleMesh& m, const std::vector<std::vector<int>>& rows) {
   // Counter-clockwise seen from +z (x grows along a row, y from row to row): front face +z.
   for (std::size_t j = 0; j + 1 < rows.size(); ++j) {
     const auto &lo = rows[j], &hi = rows[j + 1];
@@ -300,7 +305,6 @@ TriangleMesh wing_mesh(const Wing& wing, int n_span, int n_chord) {
       for (std::size_t i = 0; i + 1 < hi.size(); ++i) m.triangles.push_back({lo[0], hi[i + 1], hi[i]});
     }
   }
-  return m;
 }
 
 RigidTransform wing_transform(const WingPose& pose) { return RigidTransform{pose.axes, pose.hinge}; }

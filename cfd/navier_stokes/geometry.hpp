@@ -86,6 +86,9 @@ TriangleMesh sphere_mesh(double radius, int n);
 // exact); n_chord equal chordwise divisions; a station of zero chord collapses to one vertex.
 // The mesh area is the trapezoidal rule for int c dr on those stations.
 TriangleMesh wing_mesh(const Wing& wing, int n_span, int n_chord);
+// Triangles between consecutive rows of vertex indices of a planar membrane (rows along y, x growing along a
+// row; a row of one vertex is a tip or root point), counter-clockwise seen from +z: appended to m.triangles.
+void triangulate_rows(TriangleMesh& m, const std::vector<std::vector<int>>& rows);
 
 // Where a wing-frame mesh goes for a pose: x = hinge + axes xi (axes improper for the left wing).
 RigidTransform wing_transform(const WingPose& pose);

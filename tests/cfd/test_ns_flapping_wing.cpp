@@ -158,14 +158,9 @@ FlappingResult run_flapping(double t_adv, double cells_per_chord, double ratio, 
   const Grid g(Axis::stretched(StretchedAxis{-3, 3, -1.05, 1.05, h, ratio, 8}, false),
                Axis::stretched(StretchedAxis{-2.5, 3.5, -0.3, 1.05, h, ratio, 8}, false),
                Axis::stretched(StretchedAxis{-2.5, 2.5, -zh, zh, h, ratio, 8}, false));
-  SolverOptions opt;
-  opt.nu = nu;
-  opt.cfl = 1.2;
-  Solver s(g, Boundaries::all(BC::velocity), opt);
-  s.initialise([](double, double, double) { return Vec3::Zero(); });
-  ImmersedBoundary ib(g);
-  ib.add_part(mesh, motion);
-  ib.attach(s);
+  rf::SingleWingFlow flow(g, nu, mesh, motion);
+  Solver& s = flow.solver;
+  ImmersedBoundary& ib = flow.ib;
 
   FlappingResult r;
   const Shape sh = g.shape();

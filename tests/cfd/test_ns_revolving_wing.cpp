@@ -48,6 +48,7 @@ using flapstab::pi;
 using flapstab::Vec3;
 
 using flapstab::robofly::deg;
+namespace rf = flapstab::robofly;
 double robofly_cl(double alpha_deg) { return flapstab::robofly::translational_cl(alpha_deg); }
 double robofly_cd(double alpha_deg) { return flapstab::robofly::translational_cd(alpha_deg); }
 
@@ -101,14 +102,9 @@ RevolvingResult run_revolving(double alpha_deg, double cells_per_chord, double r
   const Grid g(Axis::stretched(StretchedAxis{-3, 3, -1.05, 1.05, h, ratio, 8}, false),
                Axis::stretched(StretchedAxis{-3, 3, -1.05, 1.05, h, ratio, 8}, false),
                Axis::stretched(StretchedAxis{-2.5, 2.5, -zhalf - 2 * h, zhalf + 2 * h, h, ratio, 8}, false));
-  SolverOptions opt;
-  opt.nu = nu;
-  opt.cfl = 1.2;
-  Solver s(g, Boundaries::all(BC::velocity), opt);
-  s.initialise([](double, double, double) { return Vec3::Zero(); });
-  ImmersedBoundary ib(g);
-  ib.add_part(mesh, motion);
-  ib.attach(s);
+  rf::SingleWingFlow flow(g, nu, mesh, motion);
+  Solver& s = flow.solver;
+  ImmersedBoundary& ib = flow.ib;
 
   RevolvingResult r{};
   const Shape sh = g.shape();

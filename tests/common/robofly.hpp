@@ -9,6 +9,7 @@
 #include <cmath>
 #include <vector>
 #include "cfd/navier_stokes/geometry.hpp"
+#include "cfd/navier_stokes/immersed.hpp"
 #include "core/insect.hpp"
 #include "core/series.hpp"
 
@@ -39,6 +40,25 @@ inline Wing elliptic_wing(double aspect_ratio) {
 
 // Radius of the second moment of area of a planar wing-frame mesh about the hinge axis (distance along
 // wing-frame y): (int y^2 dA / S)^(1/2), exact for piecewise-linear triangles.
+// One wing in fluid at rest in a walled box: the solver (viscosity nu, adaptive step at CFL 1.2) and the
+// immersed boundary with the wing attached (constructed in place: the boundary keeps a pointer to the solver).
+struct SingleWingFlow {
+  ns::Solver solver;
+  ns::ImmersedBoundary ib;
+  SingleWingFlow(const ns::Grid& g, double nu, const ns::TriangleMesh& mesh, ns::PartMotion motion)
+      : solver(g, ns::Boundaries::all(ns::BC::velocity), options(nu)), ib(g) {
+    solver.initialise([](double, double, double) { return Vec3::Zero(); });
+    ib.add_part(mesh, std::move(motion));
+    ib.attach(solver);
+  }
+  static ns::SolverOptions options(double nu) {
+    ns::SolverOptions o;
+    o.nu = nu;
+    o.cfl = 1.2;
+    return o;
+  }
+};
+
 inline double second_moment_radius(const ns::TriangleMesh& mesh) {
   double I2 = 0;
   for (std::size_t k = 0; k < mesh.size(); ++k) {
@@ -151,20 +171,7 @@ inline ns::TriangleMesh dickinson_wing_mesh(int n_span, int n_chord) {
     }
     rows.push_back(std::move(row));
   }
-  // Counter-clockwise seen from +z (x grows along a row, y from row to row): front face +z.
-  for (std::size_t j = 0; j + 1 < rows.size(); ++j) {
-    const auto &lo = rows[j], &hi = rows[j + 1];
-    if (lo.size() > 1 && hi.size() > 1) {
-      for (std::size_t i = 0; i + 1 < lo.size(); ++i) {
-        m.triangles.push_back({lo[i], lo[i + 1], hi[i + 1]});
-        m.triangles.push_back({lo[i], hi[i + 1], hi[i]});
-      }
-    } else if (lo.size() > 1) {
-      for (std::size_t i = 0; i + 1 < lo.size(); ++i) m.triangles.push_back({lo[i], lo[i + 1], hi[0]});
-    } else if (hi.size() > 1) {
-      for (std::size_t i = 0; i + 1 < hi.size(); ++i) m.triangles.push_back({lo[0], hi[i + 1], hi[i]});
-    }
-  }
+  ns::triangulate_rows(m, rows);
   return m;
 }
 
