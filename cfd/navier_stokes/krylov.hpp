@@ -108,20 +108,11 @@ FLAPSTAB_KERNEL double correct(const Stencil<T>& L, int k, T* x, T* r, const T* 
     T* __restrict rr = r + o;
     const T* __restrict zr = z + o;
     double rm = 0;
-    if (first) {
 #pragma omp simd reduction(max : rm)
-      for (int i = 1; i <= s.nx; ++i) {
-        xr[i] = zr[i];
-        rr[i] -= row.apply(i);
-        rm = std::max(rm, double(std::abs(rr[i])));
-      }
-    } else {
-#pragma omp simd reduction(max : rm)
-      for (int i = 1; i <= s.nx; ++i) {
-        xr[i] += zr[i];
-        rr[i] -= row.apply(i);
-        rm = std::max(rm, double(std::abs(rr[i])));
-      }
+    for (int i = 1; i <= s.nx; ++i) {
+      xr[i] = first ? zr[i] : xr[i] + zr[i];
+      rr[i] -= row.apply(i);
+      rm = std::max(rm, double(std::abs(rr[i])));
     }
     m = std::max(m, rm);
   }

@@ -8,11 +8,12 @@ namespace flapstab::ns {
 struct PoissonOptions {
   double rtol = 1e-6;   // stop when max|b - Lx| <= max(rtol * max|b|, atol)
   double atol = 0;
-  int max_cycles = 30;  // conjugate-gradient iterations (one V-cycle each)
+  int max_cycles = 30;  // iterations, plain and conjugate-gradient (one V-cycle each)
   int pre_sweeps = 2;   // red-black Gauss-Seidel sweeps before and after the coarse-grid correction
   int post_sweeps = 2;
   // Plain V-cycle iterations first, as long as each reduces the residual at least this much (max-norm ratio);
-  // then flexible CG. 0: CG from the start. A plain iteration moves about half the bytes of a CG one.
+  // then flexible CG. 0: CG from the start. A plain iteration moves about two thirds of the bytes of a CG one
+  // (145 against 217 per cell in bench/step_timing.hpp's model).
   double stationary_factor = 0.1;
 };
 
@@ -27,11 +28,11 @@ struct PoissonStats {
 
 // Plain multigrid iterations (x += M r with one single-precision V-cycle M, multigrid.hpp) while each cuts the
 // residual at least stationary_factor-fold, then flexible conjugate gradients in double precision preconditioned
-// by the same V-cycle. The divergence a moving body leaves is local and the smoother removes it fast (two plain
-// iterations per projection on the insect grids, at about half a CG iteration's memory traffic); on smooth
-// right-hand sides and stretched cells the Krylov acceleration keeps the rate (0.05-0.15 per iteration against
-// 0.16-0.35 for plain cycles). Periodic and Neumann faces everywhere make L singular: b's volume-weighted mean
-// is removed.
+// by the same V-cycle. The divergence a moving body leaves is local and the smoother removes it fast (two or
+// three plain iterations per projection on the insect grids, each at about two thirds of a CG iteration's
+// memory traffic); on smooth right-hand sides and stretched cells the Krylov acceleration keeps the rate
+// (0.05-0.15 per iteration against 0.16-0.35 for plain cycles). Periodic and Neumann faces everywhere make L
+// singular: b's volume-weighted mean is removed.
 class Poisson {
  public:
   Poisson(const Grid& g, const ScalarBCs& bc);

@@ -38,8 +38,6 @@ inline Wing elliptic_wing(double aspect_ratio) {
   return w;
 }
 
-// Radius of the second moment of area of a planar wing-frame mesh about the hinge axis (distance along
-// wing-frame y): (int y^2 dA / S)^(1/2), exact for piecewise-linear triangles.
 // One wing in fluid at rest in a walled box: the solver (viscosity nu, adaptive step at CFL 1.2) and the
 // immersed boundary with the wing attached (constructed in place: the boundary keeps a pointer to the solver).
 struct SingleWingFlow {
@@ -59,6 +57,8 @@ struct SingleWingFlow {
   }
 };
 
+// Radius of the second moment of area of a planar wing-frame mesh about the hinge axis (distance along
+// wing-frame y): (int y^2 dA / S)^(1/2), exact for piecewise-linear triangles.
 inline double second_moment_radius(const ns::TriangleMesh& mesh) {
   double I2 = 0;
   for (std::size_t k = 0; k < mesh.size(); ++k) {
