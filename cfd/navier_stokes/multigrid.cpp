@@ -13,7 +13,6 @@ namespace {
 
 using mg = float;
 constexpr int dense_cells = 1024;  // largest coarsest level solved by LU
-constexpr int max_line = 1024;     // line buffer of the smoother (longer lines go in pieces)
 // Over-relaxation of the red-black smoother: 1.3 keeps the uniform-grid rate (0.06 per preconditioned CG
 // iteration) and lowers the stretched-grid one (0.27 -> 0.20 with widths from h to 2.9 h); cf. Yavneh 1996,
 // SIAM J Sci Comput 17:180, on over-relaxed red-black smoothing.
@@ -24,40 +23,112 @@ constexpr mg omega = 1.3f;
 struct Multigrid::Level {
   Grid grid;
   Stencil<mg> L;
-  std::vector<mg> x, b, idiag;  // solution, right-hand side, 1/diagonal (padded like the grid)
+  std::vector<mg> x, b, idiag;  // solution, right-hand side, 1/diagonal (padded like the grid, in the line layout)
   int f[3] = {1, 1, 1};         // coarsening factor towards the next level
   // Prolongation from the next coarser level: fine I takes w0 xc[c0] + w1 xc[c1] along each axis.
   std::array<std::vector<int>, 3> c0, c1;
   std::array<std::vector<mg>, 3> w0, w1;
   Eigen::PartialPivLU<Eigen::MatrixXd> lu;  // coarsest level
   bool dense = false;
+  // Line layout. Split (every level that is smoothed): on each x line the even i come first, at slot i / 2, then
+  // the odd i, at slot he + i / 2. A colour's cells of a line are then contiguous, and so are their x neighbours
+  // (the other colour's slots, shifted by one), so a red-black half-sweep computes only the cells it updates, in
+  // one unit-stride loop. The y and z neighbours keep their slot. Natural (the coarsest level): slot = i.
+  bool split = false;
+  int he = 0;                                // slots of the even i, 0 .. nx + 1 (split layout)
+  std::vector<int> slot;                     // slot of i, 0 .. nx + 1
+  std::vector<mg> cxl, cxh, dgx, vx;         // the x-axis stencil coefficients and cell widths, in slot order
+  std::vector<int> pc0, pc1;                 // x prolongation in fine slot order, coarse indices as coarse slots
+  std::vector<mg> pw0, pw1;
 
   Level(Grid g, const ScalarBCs& bc)
-      : grid(std::move(g)), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0), idiag(L.s.size(), 0) {
-    for (int k = 1; k <= L.s.nz; ++k)
-      for (int j = 1; j <= L.s.ny; ++j)
-        for (int i = 1; i <= L.s.nx; ++i) idiag[L.s(i, j, k)] = mg(1.0 / (double(L.dg[0][i]) + L.dg[1][j] + L.dg[2][k]));
-  }
+      : grid(std::move(g)), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0), idiag(L.s.size(), 0) {}
   int threads() const { return threaded(L.s) ? std::max(1, std::min(omp_get_max_threads(), L.s.nz / 4)) : 1; }
+  int evens() const { return L.s.nx / 2; }         // even i of 1 .. nx: slots 1 .. evens()
+  int odds() const { return (L.s.nx + 1) / 2; }    // odd i of 1 .. nx: slots he .. he + odds() - 1
+
+  void set_layout(bool split_lines) {
+    split = split_lines;
+    const Shape& s = L.s;
+    he = split ? (s.nx + 3) / 2 : 0;
+    slot.assign(s.nx + 2, 0);
+    for (int i = 0; i <= s.nx + 1; ++i) slot[i] = !split ? i : i % 2 == 0 ? i / 2 : he + i / 2;
+    auto permuted = [&](const std::vector<mg>& a) {
+      std::vector<mg> p(a.size());
+      for (int i = 0; i <= s.nx + 1; ++i) p[slot[i]] = a[i];
+      return p;
+    };
+    cxl = permuted(L.cl[0]);
+    cxh = permuted(L.ch[0]);
+    dgx = permuted(L.dg[0]);
+    vx = permuted(L.vol[0]);
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i)
+          idiag[s(0, j, k) + slot[i]] = mg(1.0 / (double(L.dg[0][i]) + L.dg[1][j] + L.dg[2][k]));
+  }
 };
 
 namespace {
 
 using Level = Multigrid::Level;
 
-// Periodic ghosts in x and y of plane k (the 7-point stencil never reads edge or corner ghosts).
+// Periodic ghosts in x and y of plane k (the 7-point stencil never reads edge or corner ghosts; the y ghost lines
+// are copied whole, which is layout-blind).
 void fill_plane_ghosts(Level& V, int k) {
   const Shape& s = V.L.s;
   mg* x = V.x.data();
-  if (V.L.periodic[0])
+  if (V.L.periodic[0]) {
+    const int g0 = V.slot[0], g1 = V.slot[s.nx + 1], i1 = V.slot[1], in = V.slot[s.nx];
     for (int j = 1; j <= s.ny; ++j) {
       mg* r = x + s(0, j, k);
-      r[0] = r[s.nx];
-      r[s.nx + 1] = r[1];
+      r[g0] = r[in];
+      r[g1] = r[i1];
     }
+  }
   if (V.L.periodic[1]) {
-    std::copy_n(x + s(1, s.ny, k), s.nx, x + s(1, 0, k));
-    std::copy_n(x + s(1, 1, k), s.nx, x + s(1, s.ny + 1, k));
+    std::copy_n(x + s(0, s.ny, k), s.sy, x + s(0, 0, k));
+    std::copy_n(x + s(0, 1, k), s.sy, x + s(0, s.ny + 1, k));
+  }
+}
+
+// Box-condition ghosts of a whole level (fill_scalar_ghosts on the level's line layout).
+void fill_level_ghosts(Level& V, const ScalarBCs& bc) {
+  const Shape& s = V.L.s;
+  if (!V.split) {
+    fill_scalar_ghosts(s, V.x.data(), bc);
+    return;
+  }
+  mg* x = V.x.data();
+  const int g0 = V.slot[0], g1 = V.slot[s.nx + 1], i1 = V.slot[1], in = V.slot[s.nx];
+  const ScalarBC lo = bc[face(0, 0)], hi = bc[face(0, 1)];
+  for (int k = 0; k <= s.nz + 1; ++k)
+    for (int j = 0; j <= s.ny + 1; ++j) {
+      mg* r = x + s(0, j, k);
+      if (lo == ScalarBC::periodic) {
+        r[g0] = r[in];
+        r[g1] = r[i1];
+      } else {
+        r[g0] = lo == ScalarBC::neumann ? r[i1] : -r[i1];
+        r[g1] = hi == ScalarBC::neumann ? r[in] : -r[in];
+      }
+    }
+  // y and z: every slot of a line is some i, and the faces treat all i alike.
+  for (int a = 1; a < 3; ++a) {
+    const int n = s.n(a), nb = a == 1 ? s.nz : s.ny;
+    const std::ptrdiff_t sa = s.stride(a), sb = a == 1 ? s.sz : s.sy;
+    const ScalarBC l = bc[face(a, 0)], h = bc[face(a, 1)];
+    for (int kb = 0; kb <= nb + 1; ++kb)
+      for (std::ptrdiff_t q = 0; q < s.sy; ++q) {
+        mg* r = x + kb * sb + q;
+        if (l == ScalarBC::periodic) {
+          r[0] = r[n * sa];
+          r[(n + 1) * sa] = r[sa];
+        } else {
+          r[0] = l == ScalarBC::neumann ? r[sa] : -r[sa];
+          r[(n + 1) * sa] = h == ScalarBC::neumann ? r[n * sa] : -r[n * sa];
+        }
+      }
   }
 }
 
@@ -74,52 +145,56 @@ void fill_periodic(Level& V) {
 }
 
 // Over-relaxed Gauss-Seidel update x += omega (b - L x) / diagonal of the cells of one colour on plane k
-// ((i + j + k) % 2 == colour). Both colours are computed and one is kept, so the loop vectorises. `zero`: x is
-// taken as 0 and the other colour set to 0, and b is first read from the double field rd if given. zd: receives
-// the plane's final values (the last update of a cycle). The residual form keeps the fixed point exact.
+// ((i + j + k) % 2 == colour), on the split line layout: per line one unit-stride loop over that colour's slots.
+// `zero`: x is taken as 0 and the other colour set to 0, and b is first read from the double field rd if given.
+// zd: receives the plane's final values (the last update of a cycle). The residual form keeps the fixed point
+// exact.
 FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const real* rd, real* zd) {
   const Shape& s = V.L.s;
-  const mg* __restrict cxl = V.L.cl[0].data();
-  const mg* __restrict cxh = V.L.ch[0].data();
-  const mg* __restrict dgx = V.L.dg[0].data();
-  mg v[max_line];
+  const int he = V.he, ne = V.evens(), no = V.odds();
+  const mg* __restrict cxl = V.cxl.data();
+  const mg* __restrict cxh = V.cxh.data();
+  const mg* __restrict dgx = V.dgx.data();
   for (int j = 1; j <= s.ny; ++j) {
     const std::ptrdiff_t o = s(0, j, k);
     mg* __restrict x = V.x.data() + o;
     mg* __restrict b = V.b.data() + o;
+    const mg* __restrict id = V.idiag.data() + o;
+    const bool odd = ((colour + j + k) & 1) != 0;  // this colour's cells have odd i
+    const int lo = odd ? he : 1, hi = odd ? he + no - 1 : ne;
+    if (zero) {
+      if (rd) {
+        const real* __restrict r = rd + o;
+#pragma omp simd
+        for (int m = 1; m <= ne; ++m) b[m] = mg(r[2 * m]);
+#pragma omp simd
+        for (int m = 0; m < no; ++m) b[he + m] = mg(r[2 * m + 1]);
+      }
+#pragma omp simd
+      for (int q = lo; q <= hi; ++q) x[q] = b[q] * id[q];
+      const int olo = odd ? 1 : he, ohi = odd ? ne : he + no - 1;
+      std::fill(x + olo, x + ohi + 1, mg(0));
+      continue;
+    }
+    // x neighbours: slots q + d and q + d + 1 (the other colour's half)
+    const mg* __restrict xw = x + (odd ? -he : he - 1);
     const mg* __restrict xs = x - s.sy;
     const mg* __restrict xn = x + s.sy;
     const mg* __restrict xb = x - s.sz;
     const mg* __restrict xt = x + s.sz;
-    const mg* __restrict id = V.idiag.data() + o;
     const mg cyl = V.L.cl[1][j], cyh = V.L.ch[1][j], czl = V.L.cl[2][k], czh = V.L.ch[2][k];
     const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
-    const int parity = (colour + j + k) & 1;
-    for (int i0 = 1; i0 <= s.nx; i0 += max_line) {
-      const int i1 = std::min(s.nx, i0 + max_line - 1);
-      if (zero) {
-        if (rd) {
-          const real* __restrict r = rd + o;
 #pragma omp simd
-          for (int i = i0; i <= i1; ++i) b[i] = mg(r[i]);
-        }
+    for (int q = lo; q <= hi; ++q)
+      x[q] = x[q] + omega * id[q] *
+                        (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
+                                 czh * xt[q] + (dgx[q] + dyz) * x[q]));
+    if (zd) {
+      real* __restrict z = zd + o;
 #pragma omp simd
-        for (int i = i0; i <= i1; ++i) x[i] = (i & 1) == parity ? b[i] * id[i] : mg(0);
-        continue;
-      }
-      mg* __restrict w = v - i0;
+      for (int m = 1; m <= ne; ++m) z[2 * m] = real(x[m]);
 #pragma omp simd
-      for (int i = i0; i <= i1; ++i)
-        w[i] = x[i] + omega * id[i] *
-                          (b[i] - (cxl[i] * x[i - 1] + cxh[i] * x[i + 1] + cyl * xs[i] + cyh * xn[i] + czl * xb[i] +
-                                   czh * xt[i] + (dgx[i] + dyz) * x[i]));
-#pragma omp simd
-      for (int i = i0; i <= i1; ++i) x[i] = (i & 1) == parity ? w[i] : x[i];
-      if (zd) {
-        real* __restrict z = zd + o;
-#pragma omp simd
-        for (int i = i0; i <= i1; ++i) z[i] = real(x[i]);
-      }
+      for (int m = 0; m < no; ++m) z[2 * m + 1] = real(x[he + m]);
     }
   }
   fill_plane_ghosts(V, k);
@@ -148,29 +223,48 @@ void sweep(Level& V, int first, bool zero, const real* rd, real* zd) {
   fill_z_ghosts(V);
 }
 
-// Coarse right-hand side on the coarse line (J, K): volume-weighted mean of the fine residual b - L x.
+// Coarse right-hand side on the coarse line (J, K): volume-weighted mean of the fine residual b - L x (fine level
+// split, coarse level in its own layout; acc is indexed by fine slot).
 FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* acc) {
   const Shape &s = C.L.s, &fs = F.L.s;
-  const mg* __restrict vx = F.L.vol[0].data();
+  const int he = F.he, ne = F.evens(), no = F.odds();
+  const mg* __restrict vx = F.vx.data();
+  const mg* __restrict cxl = F.cxl.data();
+  const mg* __restrict cxh = F.cxh.data();
+  const mg* __restrict dgx = F.dgx.data();
   mg* __restrict ac = acc;
   std::fill(ac, ac + fs.nx + 2, mg(0));
   for (int k = F.f[2] * (K - 1) + 1; k <= F.f[2] * K; ++k)
     for (int j = F.f[1] * (J - 1) + 1; j <= F.f[1] * J; ++j) {
-      const StencilRow<mg> r(F.L, F.x.data(), j, k);
-      const mg* __restrict br = F.b.data() + fs(0, j, k);
+      const std::ptrdiff_t o = fs(0, j, k);
+      const mg* __restrict x = F.x.data() + o;
+      const mg* __restrict br = F.b.data() + o;
+      const mg* __restrict xs = x - fs.sy;
+      const mg* __restrict xn = x + fs.sy;
+      const mg* __restrict xb = x - fs.sz;
+      const mg* __restrict xt = x + fs.sz;
+      const mg cyl = F.L.cl[1][j], cyh = F.L.ch[1][j], czl = F.L.cl[2][k], czh = F.L.ch[2][k];
+      const mg dyz = F.L.dg[1][j] + F.L.dg[2][k];
       const mg vjk = F.L.vol[1][j] * F.L.vol[2][k];
+      for (int half = 0; half < 2; ++half) {
+        const int lo = half ? he : 1, hi = half ? he + no - 1 : ne;
+        const mg* __restrict xw = x + (half ? -he : he - 1);
 #pragma omp simd
-      for (int i = 1; i <= fs.nx; ++i) ac[i] += vjk * vx[i] * (br[i] - r.apply(i));
+        for (int q = lo; q <= hi; ++q)
+          ac[q] += vjk * vx[q] *
+                   (br[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
+                             czh * xt[q] + (dgx[q] + dyz) * x[q]));
+      }
     }
   mg* __restrict out = C.b.data() + s(0, J, K);
-  const mg* __restrict cvx = C.L.vol[0].data();
+  const mg* __restrict cvx = C.vx.data();
+  const int* __restrict fsl = F.slot.data();
+  const int* __restrict csl = C.slot.data();
   const mg ivjk = 1 / (C.L.vol[1][J] * C.L.vol[2][K]);
   if (F.f[0] == 2) {
-#pragma omp simd
-    for (int I = 1; I <= s.nx; ++I) out[I] = (ac[2 * I - 1] + ac[2 * I]) * ivjk / cvx[I];
+    for (int I = 1; I <= s.nx; ++I) out[csl[I]] = (ac[fsl[2 * I - 1]] + ac[fsl[2 * I]]) * ivjk / cvx[csl[I]];
   } else {
-#pragma omp simd
-    for (int I = 1; I <= s.nx; ++I) out[I] = ac[I] * ivjk / cvx[I];
+    for (int I = 1; I <= s.nx; ++I) out[csl[I]] = ac[fsl[I]] * ivjk / cvx[csl[I]];
   }
 }
 
@@ -184,14 +278,16 @@ void restrict_residual(const Level& F, Level& C) {
   }
 }
 
-// Fine x += linear interpolation of the coarse correction on fine plane k (the coarse ghosts carry the BCs).
+// Fine x += linear interpolation of the coarse correction on fine plane k (the coarse ghosts carry the BCs). The
+// coarse line is interpolated in y and z slot by slot, then in x through the fine level's slot-ordered tables.
 FLAPSTAB_KERNEL void prolong_plane(Level& F, const Level& C, int k, mg* line) {
   const Shape &s = F.L.s, &cs = C.L.s;
   const mg* xc = C.x.data();
-  const int* __restrict c0x = F.c0[0].data();
-  const int* __restrict c1x = F.c1[0].data();
-  const mg* __restrict w0x = F.w0[0].data();
-  const mg* __restrict w1x = F.w1[0].data();
+  const int* __restrict c0x = F.pc0.data();
+  const int* __restrict c1x = F.pc1.data();
+  const mg* __restrict w0x = F.pw0.data();
+  const mg* __restrict w1x = F.pw1.data();
+  const int he = F.he, ne = F.evens(), no = F.odds();
   mg* __restrict ln = line;
   for (int j = 1; j <= s.ny; ++j) {
     const mg wy0 = F.w0[1][j], wy1 = F.w1[1][j], wz0 = F.w0[2][k], wz1 = F.w1[2][k];
@@ -200,10 +296,12 @@ FLAPSTAB_KERNEL void prolong_plane(Level& F, const Level& C, int k, mg* line) {
     const mg* __restrict r01 = xc + cs(0, F.c0[1][j], F.c1[2][k]);
     const mg* __restrict r11 = xc + cs(0, F.c1[1][j], F.c1[2][k]);
 #pragma omp simd
-    for (int I = 0; I <= cs.nx + 1; ++I) ln[I] = wz0 * (wy0 * r00[I] + wy1 * r10[I]) + wz1 * (wy0 * r01[I] + wy1 * r11[I]);
+    for (int Q = 0; Q <= cs.nx + 1; ++Q) ln[Q] = wz0 * (wy0 * r00[Q] + wy1 * r10[Q]) + wz1 * (wy0 * r01[Q] + wy1 * r11[Q]);
     mg* __restrict xr = F.x.data() + s(0, j, k);
 #pragma omp simd
-    for (int i = 1; i <= s.nx; ++i) xr[i] += w0x[i] * ln[c0x[i]] + w1x[i] * ln[c1x[i]];
+    for (int q = 1; q <= ne; ++q) xr[q] += w0x[q] * ln[c0x[q]] + w1x[q] * ln[c1x[q]];
+#pragma omp simd
+    for (int q = he; q < he + no; ++q) xr[q] += w0x[q] * ln[c0x[q]] + w1x[q] * ln[c1x[q]];
   }
 }
 
@@ -331,6 +429,21 @@ Multigrid::Multigrid(const Grid& g, const ScalarBCs& bc) : bc_(bc) {
       }
     }
   }
+  for (std::size_t l = 0; l < levels_.size(); ++l) levels_[l].set_layout(l + 1 < levels_.size());
+  for (std::size_t l = 0; l + 1 < levels_.size(); ++l) {
+    Level &F = levels_[l], &C = levels_[l + 1];
+    const int n = F.L.s.nx;
+    F.pc0.assign(n + 2, 0);
+    F.pc1.assign(n + 2, 0);
+    F.pw0.assign(n + 2, 0);
+    F.pw1.assign(n + 2, 0);
+    for (int i = 1; i <= n; ++i) {
+      F.pc0[F.slot[i]] = C.slot[F.c0[0][i]];
+      F.pc1[F.slot[i]] = C.slot[F.c1[0][i]];
+      F.pw0[F.slot[i]] = F.w0[0][i];
+      F.pw1[F.slot[i]] = F.w1[0][i];
+    }
+  }
   if (levels_.back().L.s.cells() <= std::size_t(dense_cells)) factor_dense(levels_.back(), singular_);
 }
 
@@ -353,14 +466,16 @@ void Multigrid::vcycle(const Field& r, Field& z, int pre, int post) {
 void Multigrid::cycle(int l, int pre, int post, const real* r, real* z) {
   Level& V = levels_[l];
   if (l + 1 == int(levels_.size())) {
+    if (r) std::transform(r, r + V.b.size(), V.b.begin(), [](real v) { return mg(v); });  // a one-level grid
     solve_coarsest(V, singular_, bc_);
+    if (z) std::copy(V.x.begin(), V.x.end(), z);
     return;
   }
   Level& C = levels_[l + 1];
   for (int s = 0; s < pre; ++s) sweep(V, 0, s == 0, s == 0 ? r : nullptr, nullptr);
   restrict_residual(V, C);
   cycle(l + 1, pre, post, nullptr, nullptr);
-  fill_scalar_ghosts(C.L.s, C.x.data(), bc_);
+  fill_level_ghosts(C, bc_);
   prolong_add(V, C);
   fill_periodic(V);
   for (int s = 0; s < post; ++s) sweep(V, 1, false, nullptr, s + 1 == post ? z : nullptr);
