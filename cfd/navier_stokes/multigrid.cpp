@@ -23,7 +23,8 @@ constexpr mg omega = 1.3f;
 struct Multigrid::Level {
   Grid grid;
   Stencil<mg> L;
-  std::vector<mg> x, b, idiag;  // solution, right-hand side, 1/diagonal (padded like the grid, in the line layout)
+  std::vector<mg> x, b;   // solution, right-hand side (padded like the grid, in the line layout)
+  std::vector<mg> idiag;  // 1/diagonal, coarsest level only (the smoother divides: a stored array costs bandwidth)
   int f[3] = {1, 1, 1};         // coarsening factor towards the next level
   // Prolongation from the next coarser level: fine I takes w0 xc[c0] + w1 xc[c1] along each axis.
   std::array<std::vector<int>, 3> c0, c1;
@@ -42,7 +43,7 @@ struct Multigrid::Level {
   std::vector<mg> pw0, pw1;
 
   Level(Grid g, const ScalarBCs& bc)
-      : grid(std::move(g)), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0), idiag(L.s.size(), 0) {}
+      : grid(std::move(g)), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0) {}
   int threads() const { return threaded(L.s) ? std::max(1, std::min(omp_get_max_threads(), L.s.nz / 4)) : 1; }
   int evens() const { return L.s.nx / 2; }         // even i of 1 .. nx: slots 1 .. evens()
   int odds() const { return (L.s.nx + 1) / 2; }    // odd i of 1 .. nx: slots he .. he + odds() - 1
@@ -62,10 +63,11 @@ struct Multigrid::Level {
     cxh = permuted(L.ch[0]);
     dgx = permuted(L.dg[0]);
     vx = permuted(L.vol[0]);
+    if (split) return;
+    idiag.assign(s.size(), 0);
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i)
-          idiag[s(0, j, k) + slot[i]] = mg(1.0 / (double(L.dg[0][i]) + L.dg[1][j] + L.dg[2][k]));
+        for (int i = 1; i <= s.nx; ++i) idiag[s(0, j, k) + i] = mg(1.0 / (double(L.dg[0][i]) + L.dg[1][j] + L.dg[2][k]));
   }
 };
 
@@ -159,7 +161,6 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
     const std::ptrdiff_t o = s(0, j, k);
     mg* __restrict x = V.x.data() + o;
     mg* __restrict b = V.b.data() + o;
-    const mg* __restrict id = V.idiag.data() + o;
     const bool odd = ((colour + j + k) & 1) != 0;  // this colour's cells have odd i
     const int lo = odd ? he : 1, hi = odd ? he + no - 1 : ne;
     if (zero) {
@@ -170,8 +171,9 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
 #pragma omp simd
         for (int m = 0; m < no; ++m) b[he + m] = mg(r[2 * m + 1]);
       }
+      const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
 #pragma omp simd
-      for (int q = lo; q <= hi; ++q) x[q] = b[q] * id[q];
+      for (int q = lo; q <= hi; ++q) x[q] = b[q] / (dgx[q] + dyz);
       const int olo = odd ? 1 : he, ohi = odd ? ne : he + no - 1;
       std::fill(x + olo, x + ohi + 1, mg(0));
       continue;
@@ -185,10 +187,11 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
     const mg cyl = V.L.cl[1][j], cyh = V.L.ch[1][j], czl = V.L.cl[2][k], czh = V.L.ch[2][k];
     const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
 #pragma omp simd
-    for (int q = lo; q <= hi; ++q)
-      x[q] = x[q] + omega * id[q] *
-                        (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
-                                 czh * xt[q] + (dgx[q] + dyz) * x[q]));
+    for (int q = lo; q <= hi; ++q) {
+      const mg d = dgx[q] + dyz;
+      x[q] += omega * (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
+                               czh * xt[q] + d * x[q])) / d;
+    }
     if (zd) {
       real* __restrict z = zd + o;
 #pragma omp simd
@@ -221,6 +224,38 @@ void sweep(Level& V, int first, bool zero, const real* rd, real* zd) {
     if (b != a) relax_plane(V, b, second, false, nullptr, zd);
   }
   fill_z_ghosts(V);
+}
+
+// `count` red-black sweeps (colour `first`, then the other, repeated) in one pass over memory, for levels whose z
+// ghosts are not periodic images. Stage s (0 .. 2 count - 1) of a plane updates colour first ^ (s & 1) and needs
+// stage s - 1 done on the plane and on both neighbours; each thread runs a wavefront over its slab of planes
+// (stage s on plane k - s), so a plane's data stay in cache for all the stages. A slab's end planes depend on
+// the neighbouring slabs: in phase m a thread takes their stage from the previous phase's record (a barrier
+// apart), so every plane has stage m done after phase m, and 2 count phases finish the sweeps. zero, rd: as in
+// relax_plane (first stage); zd: receives the result (last stage).
+void fused_sweeps(Level& V, int first, int count, bool zero, const real* rd, real* zd) {
+  const int nz = V.L.s.nz, stages = 2 * count;
+  std::vector<int> done(nz + 2, 0), seen(nz + 2, 0);
+  done[0] = done[nz + 1] = seen[0] = seen[nz + 1] = stages;  // wall ghosts: the stencil does not read them
+#pragma omp parallel num_threads(V.threads())
+  {
+    const int t = omp_get_thread_num(), T = omp_get_num_threads();
+    const int a = 1 + nz * t / T, b = nz * (t + 1) / T;
+    for (int phase = 0; phase < stages; ++phase) {
+      for (int k = a; k <= b + stages - 1; ++k)
+        for (int st = 0; st < stages; ++st) {
+          const int p = k - st;
+          if (p < a || p > b || done[p] != st) continue;
+          const int lo = p - 1 >= a ? done[p - 1] : seen[p - 1], hi = p + 1 <= b ? done[p + 1] : seen[p + 1];
+          if (lo < st || hi < st) continue;
+          relax_plane(V, p, first ^ (st & 1), zero && st == 0, st == 0 ? rd : nullptr, st + 1 == stages ? zd : nullptr);
+          done[p] = st + 1;
+        }
+#pragma omp barrier
+#pragma omp single
+      seen = done;
+    }
+  }
 }
 
 // Coarse right-hand side on the coarse line (J, K): volume-weighted mean of the fine residual b - L x (fine level
@@ -472,13 +507,19 @@ void Multigrid::cycle(int l, int pre, int post, const real* r, real* z) {
     return;
   }
   Level& C = levels_[l + 1];
-  for (int s = 0; s < pre; ++s) sweep(V, 0, s == 0, s == 0 ? r : nullptr, nullptr);
+  if (V.L.periodic[2])
+    for (int s = 0; s < pre; ++s) sweep(V, 0, s == 0, s == 0 ? r : nullptr, nullptr);
+  else
+    fused_sweeps(V, 0, pre, true, r, nullptr);
   restrict_residual(V, C);
   cycle(l + 1, pre, post, nullptr, nullptr);
   fill_level_ghosts(C, bc_);
   prolong_add(V, C);
   fill_periodic(V);
-  for (int s = 0; s < post; ++s) sweep(V, 1, false, nullptr, s + 1 == post ? z : nullptr);
+  if (V.L.periodic[2])
+    for (int s = 0; s < post; ++s) sweep(V, 1, false, nullptr, s + 1 == post ? z : nullptr);
+  else
+    fused_sweeps(V, 1, post, false, nullptr, z);
 }
 
 }  // namespace flapstab::ns
