@@ -76,15 +76,16 @@ void BM_PoissonIteration(benchmark::State& state) {
   }
   const double cells = double(g.cells());
   state.counters["ns_per_cell_iteration"] = seconds * 1e9 / (its * cells);
-  const double bytes = plain ? flapstab::bench::plain_iteration_bytes : flapstab::bench::iteration_bytes;
+  const double bytes = flapstab::bench::vcycle_bytes(g) +
+                       (plain ? flapstab::bench::plain_update_bytes : flapstab::bench::krylov_bytes);
   state.counters["implied_GB_per_s"] = bytes * double(its) * cells / seconds / 1e9;
 }
 BENCHMARK(BM_PoissonIteration)->Args({128, 1, 0})->Args({128, 2, 0})->Args({128, 1, 1})->Args({128, 2, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 
-// One V(2,2) cycle of the single-precision multigrid alone, walled box (Neumann), n^3 cells: the cost per cell
-// against n shows whether the smoother is bound by memory (cost grows once the level no longer fits the caches:
-// x, b and 1/diagonal take 12 bytes per cell) or by instructions (flat).
+// One V(2,2) cycle of the single-precision multigrid alone, walled box (Neumann, so the smoothing sweeps are
+// fused), n^3 cells: the cost per cell against n shows whether the cycle is bound by memory (the cost grows once
+// the finest level's x and b, 8 bytes per cell, no longer fit the caches) or by instructions (flat).
 void BM_VCycle(benchmark::State& state) {
   const int n = int(state.range(0)), threads = int(state.range(1));
   omp_set_num_threads(threads);
@@ -95,9 +96,18 @@ void BM_VCycle(benchmark::State& state) {
   for (int k = 1; k <= n; ++k)
     for (int j = 1; j <= n; ++j)
       for (int i = 1; i <= n; ++i) r(i, j, k) = std::sin(7.0 * i / n) * std::cos(5.0 * (j + k * k) / n);
-  for (auto _ : state) M.vcycle(r, z, 2, 2);
-  state.counters["ns_per_cell_cycle"] =
-      benchmark::Counter(double(g.cells()) * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  double seconds = 0;
+  std::int64_t cycles = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    M.vcycle(r, z, 2, 2);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ++cycles;
+  }
+  const double cells = double(g.cells()), bytes = flapstab::bench::vcycle_bytes(g);
+  state.counters["ns_per_cell_cycle"] = seconds * 1e9 / (double(cycles) * cells);
+  state.counters["bytes_per_cell_cycle"] = bytes;
+  state.counters["implied_GB_per_s"] = bytes * double(cycles) * cells / seconds / 1e9;
 }
 BENCHMARK(BM_VCycle)
     ->ArgsProduct({{32, 64, 96, 128, 192}, {1, 2}})

@@ -192,12 +192,17 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
       x[q] += omega * (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
                                czh * xt[q] + d * x[q])) / d;
     }
-    if (zd) {
+    if (zd) {  // merge the halves: one loop that stores both i = 2m and 2m + 1 vectorises, two strided ones do not
       real* __restrict z = zd + o;
+      const mg* __restrict xo = x + he;
+      z[1] = real(xo[0]);
+      const int pairs = (s.nx - 1) / 2;
 #pragma omp simd
-      for (int m = 1; m <= ne; ++m) z[2 * m] = real(x[m]);
-#pragma omp simd
-      for (int m = 0; m < no; ++m) z[2 * m + 1] = real(x[he + m]);
+      for (int m = 1; m <= pairs; ++m) {
+        z[2 * m] = real(x[m]);
+        z[2 * m + 1] = real(xo[m]);
+      }
+      if (s.nx % 2 == 0) z[s.nx] = real(x[s.nx / 2]);
     }
   }
   fill_plane_ghosts(V, k);
