@@ -189,8 +189,10 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
 #pragma omp simd
     for (int q = lo; q <= hi; ++q) {
       const mg d = dgx[q] + dyz;
-      x[q] += omega * (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
-                               czh * xt[q] + d * x[q])) / d;
+      const mg id = mg(1) / d;  // the form of the stored-inverse smoother it replaced (x + omega id r)
+      x[q] = x[q] + omega * id *
+                        (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
+                                 czh * xt[q] + d * x[q]));
     }
     if (zd) {  // merge the halves: one loop that stores both i = 2m and 2m + 1 vectorises, two strided ones do not
       real* __restrict z = zd + o;
