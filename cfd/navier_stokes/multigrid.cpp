@@ -94,44 +94,9 @@ void fill_plane_ghosts(Level& V, int k) {
   }
 }
 
-// Box-condition ghosts of a whole level (fill_scalar_ghosts on the level's line layout).
+// Box-condition ghosts of a whole level, on its line layout.
 void fill_level_ghosts(Level& V, const ScalarBCs& bc) {
-  const Shape& s = V.L.s;
-  if (!V.split) {
-    fill_scalar_ghosts(s, V.x.data(), bc);
-    return;
-  }
-  mg* x = V.x.data();
-  const int g0 = V.slot[0], g1 = V.slot[s.nx + 1], i1 = V.slot[1], in = V.slot[s.nx];
-  const ScalarBC lo = bc[face(0, 0)], hi = bc[face(0, 1)];
-  for (int k = 0; k <= s.nz + 1; ++k)
-    for (int j = 0; j <= s.ny + 1; ++j) {
-      mg* r = x + s(0, j, k);
-      if (lo == ScalarBC::periodic) {
-        r[g0] = r[in];
-        r[g1] = r[i1];
-      } else {
-        r[g0] = lo == ScalarBC::neumann ? r[i1] : -r[i1];
-        r[g1] = hi == ScalarBC::neumann ? r[in] : -r[in];
-      }
-    }
-  // y and z: every slot of a line is some i, and the faces treat all i alike.
-  for (int a = 1; a < 3; ++a) {
-    const int n = s.n(a), nb = a == 1 ? s.nz : s.ny;
-    const std::ptrdiff_t sa = s.stride(a), sb = a == 1 ? s.sz : s.sy;
-    const ScalarBC l = bc[face(a, 0)], h = bc[face(a, 1)];
-    for (int kb = 0; kb <= nb + 1; ++kb)
-      for (std::ptrdiff_t q = 0; q < s.sy; ++q) {
-        mg* r = x + kb * sb + q;
-        if (l == ScalarBC::periodic) {
-          r[0] = r[n * sa];
-          r[(n + 1) * sa] = r[sa];
-        } else {
-          r[0] = l == ScalarBC::neumann ? r[sa] : -r[sa];
-          r[(n + 1) * sa] = h == ScalarBC::neumann ? r[n * sa] : -r[n * sa];
-        }
-      }
-  }
+  fill_scalar_ghosts(V.L.s, V.x.data(), bc, V.split ? V.slot.data() : nullptr);
 }
 
 void fill_z_ghosts(Level& V) {
@@ -145,6 +110,21 @@ void fill_periodic(Level& V) {
   for (int k = 1; k <= V.L.s.nz; ++k) fill_plane_ghosts(V, k);
   fill_z_ghosts(V);
 }
+
+// The stencil on line (j, k) of a split level: neighbour lines, row constants, and the slots of one colour's
+// half (odd: the odd i) with the offset of their left x neighbour (slots q + dx and q + dx + 1).
+struct SplitRow {
+  const mg *xs, *xn, *xb, *xt;
+  mg cyl, cyh, czl, czh, dyz;
+  SplitRow(const Level& V, const mg* x, int j, int k)
+      : xs(x - V.L.s.sy), xn(x + V.L.s.sy), xb(x - V.L.s.sz), xt(x + V.L.s.sz), cyl(V.L.cl[1][j]), cyh(V.L.ch[1][j]),
+        czl(V.L.cl[2][k]), czh(V.L.ch[2][k]), dyz(V.L.dg[1][j] + V.L.dg[2][k]) {}
+};
+struct Half {
+  int lo, hi, dx;
+  Half(const Level& V, bool odd)
+      : lo(odd ? V.he : 1), hi(odd ? V.he + V.odds() - 1 : V.evens()), dx(odd ? -V.he : V.he - 1) {}
+};
 
 // Over-relaxed Gauss-Seidel update x += omega (b - L x) / diagonal of the cells of one colour on plane k
 // ((i + j + k) % 2 == colour), on the split line layout: per line one unit-stride loop over that colour's slots.
@@ -162,7 +142,8 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
     mg* __restrict x = V.x.data() + o;
     mg* __restrict b = V.b.data() + o;
     const bool odd = ((colour + j + k) & 1) != 0;  // this colour's cells have odd i
-    const int lo = odd ? he : 1, hi = odd ? he + no - 1 : ne;
+    const Half h(V, odd);
+    const int lo = h.lo, hi = h.hi;
     if (zero) {
       if (rd) {
         const real* __restrict r = rd + o;
@@ -174,18 +155,17 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
       const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
 #pragma omp simd
       for (int q = lo; q <= hi; ++q) x[q] = b[q] / (dgx[q] + dyz);
-      const int olo = odd ? 1 : he, ohi = odd ? ne : he + no - 1;
-      std::fill(x + olo, x + ohi + 1, mg(0));
+      const Half other(V, !odd);
+      std::fill(x + other.lo, x + other.hi + 1, mg(0));
       continue;
     }
-    // x neighbours: slots q + d and q + d + 1 (the other colour's half)
-    const mg* __restrict xw = x + (odd ? -he : he - 1);
-    const mg* __restrict xs = x - s.sy;
-    const mg* __restrict xn = x + s.sy;
-    const mg* __restrict xb = x - s.sz;
-    const mg* __restrict xt = x + s.sz;
-    const mg cyl = V.L.cl[1][j], cyh = V.L.ch[1][j], czl = V.L.cl[2][k], czh = V.L.ch[2][k];
-    const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
+    const SplitRow r(V, x, j, k);
+    const mg* __restrict xw = x + h.dx;  // x neighbours in the other colour's half
+    const mg* __restrict xs = r.xs;
+    const mg* __restrict xn = r.xn;
+    const mg* __restrict xb = r.xb;
+    const mg* __restrict xt = r.xt;
+    const mg cyl = r.cyl, cyh = r.cyh, czl = r.czl, czh = r.czh, dyz = r.dyz;
 #pragma omp simd
     for (int q = lo; q <= hi; ++q) {
       const mg d = dgx[q] + dyz;
@@ -269,7 +249,6 @@ void fused_sweeps(Level& V, int first, int count, bool zero, const real* rd, rea
 // split, coarse level in its own layout; acc is indexed by fine slot).
 FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* acc) {
   const Shape &s = C.L.s, &fs = F.L.s;
-  const int he = F.he, ne = F.evens(), no = F.odds();
   const mg* __restrict vx = F.vx.data();
   const mg* __restrict cxl = F.cxl.data();
   const mg* __restrict cxh = F.cxh.data();
@@ -281,18 +260,18 @@ FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* a
       const std::ptrdiff_t o = fs(0, j, k);
       const mg* __restrict x = F.x.data() + o;
       const mg* __restrict br = F.b.data() + o;
-      const mg* __restrict xs = x - fs.sy;
-      const mg* __restrict xn = x + fs.sy;
-      const mg* __restrict xb = x - fs.sz;
-      const mg* __restrict xt = x + fs.sz;
-      const mg cyl = F.L.cl[1][j], cyh = F.L.ch[1][j], czl = F.L.cl[2][k], czh = F.L.ch[2][k];
-      const mg dyz = F.L.dg[1][j] + F.L.dg[2][k];
+      const SplitRow r(F, x, j, k);
+      const mg* __restrict xs = r.xs;
+      const mg* __restrict xn = r.xn;
+      const mg* __restrict xb = r.xb;
+      const mg* __restrict xt = r.xt;
+      const mg cyl = r.cyl, cyh = r.cyh, czl = r.czl, czh = r.czh, dyz = r.dyz;
       const mg vjk = F.L.vol[1][j] * F.L.vol[2][k];
-      for (int half = 0; half < 2; ++half) {
-        const int lo = half ? he : 1, hi = half ? he + no - 1 : ne;
-        const mg* __restrict xw = x + (half ? -he : he - 1);
+      for (bool odd : {false, true}) {
+        const Half h(F, odd);
+        const mg* __restrict xw = x + h.dx;
 #pragma omp simd
-        for (int q = lo; q <= hi; ++q)
+        for (int q = h.lo; q <= h.hi; ++q)
           ac[q] += vjk * vx[q] *
                    (br[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
                              czh * xt[q] + (dgx[q] + dyz) * x[q]));

@@ -70,22 +70,27 @@ struct StencilRow {
   T apply(int i) const { return off(i) + (dgx[i] + dyz) * xc[i]; }
 };
 
-// Ghost values of a padded array: periodic image, mirror (Neumann) or negated mirror (Dirichlet).
+// Ghost values of a padded array: periodic image, mirror (Neumann) or negated mirror (Dirichlet). xslot: where
+// index i of an x line is stored, for arrays whose lines are permuted (the multigrid's split layout); the y and z
+// faces treat every position of a line alike, so only the x faces need it.
 template <class T>
-void fill_scalar_ghosts(const Shape& s, T* x, const ScalarBCs& bc) {
+void fill_scalar_ghosts(const Shape& s, T* x, const ScalarBCs& bc, const int* xslot = nullptr) {
   for (int a = 0; a < 3; ++a) {
     const int b = (a + 1) % 3, c = (a + 2) % 3, n = s.n(a);
     const std::ptrdiff_t sa = s.stride(a), sb = s.stride(b), sc = s.stride(c);
+    const bool slots = a == 0 && xslot;
+    const std::ptrdiff_t g0 = slots ? xslot[0] : 0, i1 = slots ? xslot[1] : sa, in = slots ? xslot[n] : n * sa,
+                         g1 = slots ? xslot[n + 1] : (n + 1) * sa;
     const ScalarBC lo = bc[face(a, 0)], hi = bc[face(a, 1)];
     for (int kc = 0; kc <= s.n(c) + 1; ++kc)
       for (int kb = 0; kb <= s.n(b) + 1; ++kb) {
         T* l = x + kb * sb + kc * sc;
         if (lo == ScalarBC::periodic) {
-          l[0] = l[n * sa];
-          l[(n + 1) * sa] = l[sa];
+          l[g0] = l[in];
+          l[g1] = l[i1];
         } else {
-          l[0] = lo == ScalarBC::neumann ? l[sa] : -l[sa];
-          l[(n + 1) * sa] = hi == ScalarBC::neumann ? l[n * sa] : -l[n * sa];
+          l[g0] = lo == ScalarBC::neumann ? l[i1] : -l[i1];
+          l[g1] = hi == ScalarBC::neumann ? l[in] : -l[in];
         }
       }
   }
