@@ -191,7 +191,13 @@ int run_analyze(const CommandOptions& o) {
     }
   }
   const double secs = seconds_since(t0);
-  ReportInputs inputs{&c, &t, &d, &rep, &history, secs};
+  ReportInputs inputs;
+  inputs.case_file = &c;
+  inputs.trim = &t;
+  inputs.derivatives = &d;
+  inputs.stability = &rep;
+  inputs.history = &history;
+  inputs.wall_time_s = secs;
   inputs.floquet = floquet ? &*floquet : nullptr;
   inputs.revolving = revolving ? &*revolving : nullptr;
   inputs.notices = notices;

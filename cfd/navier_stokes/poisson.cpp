@@ -68,12 +68,16 @@ PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool 
     fill_ghosts(p_, bc_);
     double pr;
     krylov::apply_and_dot(L_, p_.data(), q_.data(), r.data(), pq, pr);
+    if (!std::isfinite(pr / pq)) {  // breakdown (a zero or non-finite search direction): report, do not update
+      st.breakdown = true;
+      break;
+    }
     st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), pr / pq, first);
     ++st.cycles;
     ++fcg;
   }
   if (st.cycles == 0 && !guess) x.fill(0);
-  st.converged = st.residual <= target;
+  st.converged = !st.breakdown && st.residual <= target;
   fill_ghosts(x, bc_);
   return st;
 }

@@ -12,8 +12,8 @@ struct PoissonOptions {
   int pre_sweeps = 2;   // red-black Gauss-Seidel sweeps before and after the coarse-grid correction
   int post_sweeps = 2;
   // Plain V-cycle iterations first, as long as each reduces the residual at least this much (max-norm ratio);
-  // then flexible CG. 0: CG from the start. A plain iteration moves about two thirds of the bytes of a CG one
-  // (145 against 217 per cell in bench/step_timing.hpp's model).
+  // then flexible CG. 0: CG from the start. A plain iteration moves about 60 % of the bytes of a CG one
+  // (99 against 171 per cell on walled boxes in bench/step_timing.hpp's model).
   double stationary_factor = 0.1;
 };
 
@@ -23,6 +23,7 @@ struct PoissonStats {
   double initial_residual = 0;   // max-norm, after removing the null space from b
   double residual = 0;
   bool converged = false;
+  bool breakdown = false;        // a non-finite CG step (NaN or infinite values in r): stopped without updating x
   double factor() const;         // mean residual reduction per iteration
 };
 

@@ -95,6 +95,9 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   popt.atol = std::max(popt.atol, 1e-12 * rate_ / adt);
   Field& phi = phi_[stage_];
   stats_.push_back(poisson_.solve(phi, div_, popt, guess_));
+  if (stats_.back().breakdown)
+    throw std::runtime_error("navier_stokes solver: the pressure solve broke down on non-finite values at t = " +
+                             std::to_string(t_stage) + " (time step too large? CFL was " + std::to_string(cfl(dt)) + ")");
   project(grid_, ustar_, phi, u_, p_, adt);
   fill_ghosts(p_, pbc_);
   fill_velocity_ghosts(u_, bc_, t_stage);

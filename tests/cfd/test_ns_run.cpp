@@ -340,20 +340,47 @@ TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
   EXPECT_FALSE(fs::exists(o.directory));
 }
 
-TEST(CfdRun, DivergenceStopsWithStepAndTimeAndKeepsTheCheckpoint) {
-  // A fixed step far beyond the CFL limit of a 6 m/s swirl.
-  const Case c = cfd_case("diverge.toml", testing::replace(tiny_keys, "steps_per_cycle = 60", "steps_per_cycle = 4"));
+// A fixed step far beyond the CFL limit of a 6 m/s swirl: the solver refuses it before the first step, and the
+// run stops naming the step and the time, keeps the last checkpoint and writes no run.json.
+TEST(CfdRun, UnstableStepStopsWithStepAndTimeAndKeepsTheCheckpoint) {
+  const Case c = cfd_case("unstable.toml", testing::replace(tiny_keys, "steps_per_cycle = 60", "steps_per_cycle = 4"));
   CfdRunOptions o;
   o.bodies = false;
-  o.initial_velocity = [](double x, double y, double z) { return 12.0 * swirl(x, y, z); };
+  // "-> Vec3": without it the lambda returns an Eigen expression that refers to swirl()'s dead temporary.
+  o.initial_velocity = [](double x, double y, double z) -> Vec3 { return 12.0 * swirl(x, y, z); };
+  o.directory = fresh_dir("unstable");
+  try {
+    run_cfd(c, c.kinematics, BodyMotion{}, o);
+    FAIL() << "expected SolveError";
+  } catch (const SolveError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("diverged at step 1 (t = 0 s, t/T = 0.0000)"), std::string::npos) << m;
+    EXPECT_NE(m.find("is unstable"), std::string::npos) << m;
+    EXPECT_NE(m.find("checkpoint_000000000.h5"), std::string::npos) << m;
+  }
+  EXPECT_TRUE(fs::exists(o.directory + "/checkpoints/checkpoint_000000000.h5"));
+  EXPECT_FALSE(fs::exists(o.directory + "/run.json"));
+}
+
+// Non-finite values in the flow (here planted in the initial field of a stable run) stop the run at the end of
+// the step that carries them, naming the step and the time, keeping the last checkpoint, writing no run.json.
+TEST(CfdRun, DivergenceStopsWithStepAndTimeAndKeepsTheCheckpoint) {
+  const Case c = cfd_case("diverge.toml", tiny_keys);
+  CfdRunOptions o;
+  o.bodies = false;
+  o.initial_velocity = [](double x, double y, double z) -> Vec3 {
+    const Vec3 u = swirl(x, y, z);
+    return std::sin(40.0 * z) > 0.9 ? Vec3(std::nan(""), 0.0, 0.0) : u;
+  };
   o.directory = fresh_dir("diverge");
   try {
     run_cfd(c, c.kinematics, BodyMotion{}, o);
     FAIL() << "expected SolveError";
   } catch (const SolveError& e) {
     const std::string m = e.what();
-    // The first step (dt = T/4) blows up: step 1 ends at t = T/4.
-    EXPECT_NE(m.find("diverged at step 1 (t = 0.00961538 s, t/T = 0.2500)"), std::string::npos) << m;
+    // steps_per_cycle = 60: step 1 ends at t = T/60.
+    EXPECT_NE(m.find("diverged at step 1 (t = 0.000641026 s, t/T = 0.0167)"), std::string::npos) << m;
+    EXPECT_NE(m.find("not finite"), std::string::npos) << m;
     EXPECT_NE(m.find("checkpoint_000000000.h5"), std::string::npos) << m;
   }
   EXPECT_TRUE(fs::exists(o.directory + "/checkpoints/checkpoint_000000000.h5"));
