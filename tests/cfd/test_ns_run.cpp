@@ -1,6 +1,8 @@
 // Tests for cfd/navier_stokes/run: the plan (grid around the swept volume, checks), forces.csv, checkpoints and
 // exact restart, divergence handling.
 #include <gtest/gtest.h>
+#include <functional>
+#include <initializer_list>
 
 #include <cmath>
 #include <filesystem>
@@ -340,51 +342,43 @@ TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
   EXPECT_FALSE(fs::exists(o.directory));
 }
 
-// A fixed step far beyond the CFL limit of a 6 m/s swirl: the solver refuses it before the first step, and the
-// run stops naming the step and the time, keeps the last checkpoint and writes no run.json.
-TEST(CfdRun, UnstableStepStopsWithStepAndTimeAndKeepsTheCheckpoint) {
-  const Case c = cfd_case("unstable.toml", testing::replace(tiny_keys, "steps_per_cycle = 60", "steps_per_cycle = 4"));
+// Runs a case without bodies from the initial velocity u0 in a fresh directory; it must stop: a SolveError whose
+// message names each of `expected`, the checkpoint of step 0 kept, no run.json.
+void expect_run_stops(const Case& c, const std::string& dir, std::function<Vec3(double, double, double)> u0,
+                      std::initializer_list<const char*> expected) {
   CfdRunOptions o;
   o.bodies = false;
-  // "-> Vec3": without it the lambda returns an Eigen expression that refers to swirl()'s dead temporary.
-  o.initial_velocity = [](double x, double y, double z) -> Vec3 { return 12.0 * swirl(x, y, z); };
-  o.directory = fresh_dir("unstable");
+  o.initial_velocity = std::move(u0);
+  o.directory = fresh_dir(dir);
   try {
     run_cfd(c, c.kinematics, BodyMotion{}, o);
-    FAIL() << "expected SolveError";
+    ADD_FAILURE() << "expected SolveError";
   } catch (const SolveError& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find("diverged at step 1 (t = 0 s, t/T = 0.0000)"), std::string::npos) << m;
-    EXPECT_NE(m.find("is unstable"), std::string::npos) << m;
+    for (const char* x : expected) EXPECT_NE(m.find(x), std::string::npos) << x << "\n" << m;
     EXPECT_NE(m.find("checkpoint_000000000.h5"), std::string::npos) << m;
   }
   EXPECT_TRUE(fs::exists(o.directory + "/checkpoints/checkpoint_000000000.h5"));
   EXPECT_FALSE(fs::exists(o.directory + "/run.json"));
 }
 
+// A fixed step far beyond the CFL limit of a 6 m/s swirl: the solver refuses it before the first step, and the
+// run stops naming the step and the time.
+TEST(CfdRun, UnstableStepStopsWithStepAndTimeAndKeepsTheCheckpoint) {
+  // "-> Vec3": without it the lambda returns an Eigen expression that refers to swirl()'s dead temporary.
+  expect_run_stops(cfd_case("unstable.toml", testing::replace(tiny_keys, "steps_per_cycle = 60", "steps_per_cycle = 4")),
+                   "unstable", [](double x, double y, double z) -> Vec3 { return 12.0 * swirl(x, y, z); },
+                   {"diverged at step 1 (t = 0 s, t/T = 0.0000)", "is unstable"});
+}
+
 // Non-finite values in the flow (here planted in the initial field of a stable run) stop the run at the end of
-// the step that carries them, naming the step and the time, keeping the last checkpoint, writing no run.json.
+// the step that carries them (steps_per_cycle = 60: step 1 ends at t = T/60), naming the step and the time.
 TEST(CfdRun, DivergenceStopsWithStepAndTimeAndKeepsTheCheckpoint) {
-  const Case c = cfd_case("diverge.toml", tiny_keys);
-  CfdRunOptions o;
-  o.bodies = false;
-  o.initial_velocity = [](double x, double y, double z) -> Vec3 {
-    const Vec3 u = swirl(x, y, z);
-    return std::sin(40.0 * z) > 0.9 ? Vec3(std::nan(""), 0.0, 0.0) : u;
+  const auto planted = [](double x, double y, double z) -> Vec3 {
+    return std::sin(40.0 * z) > 0.9 ? Vec3(std::nan(""), 0.0, 0.0) : swirl(x, y, z);
   };
-  o.directory = fresh_dir("diverge");
-  try {
-    run_cfd(c, c.kinematics, BodyMotion{}, o);
-    FAIL() << "expected SolveError";
-  } catch (const SolveError& e) {
-    const std::string m = e.what();
-    // steps_per_cycle = 60: step 1 ends at t = T/60.
-    EXPECT_NE(m.find("diverged at step 1 (t = 0.000641026 s, t/T = 0.0167)"), std::string::npos) << m;
-    EXPECT_NE(m.find("not finite"), std::string::npos) << m;
-    EXPECT_NE(m.find("checkpoint_000000000.h5"), std::string::npos) << m;
-  }
-  EXPECT_TRUE(fs::exists(o.directory + "/checkpoints/checkpoint_000000000.h5"));
-  EXPECT_FALSE(fs::exists(o.directory + "/run.json"));
+  expect_run_stops(cfd_case("diverge.toml", tiny_keys), "diverge", planted,
+                   {"diverged at step 1 (t = 0.000641026 s, t/T = 0.0167)", "not finite"});
 }
 
 TEST(CfdRun, DryRunWritesNothing) {
