@@ -82,7 +82,6 @@ void BM_PoissonIteration(benchmark::State& state) {
 }
 BENCHMARK(BM_PoissonIteration)->Args({128, 1, 0})->Args({128, 2, 0})->Args({128, 1, 1})->Args({128, 2, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 
-
 // One V(2,2) cycle of the single-precision multigrid alone, walled box (Neumann, so the smoothing sweeps are
 // fused), n^3 cells: the cost per cell against n shows whether the cycle is bound by memory (the cost grows once
 // the finest level's x and b, 8 bytes per cell, no longer fit the caches) or by instructions (flat).

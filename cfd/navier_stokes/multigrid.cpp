@@ -111,15 +111,24 @@ void fill_periodic(Level& V) {
   fill_z_ghosts(V);
 }
 
-// The stencil on line (j, k) of a split level: neighbour lines, row constants, and the slots of one colour's
-// half (odd: the odd i) with the offset of their left x neighbour (slots q + dx and q + dx + 1).
+// The stencil on line (j, k) of a split level (x: the line's first slot): (L x) at slot q, whose x neighbours sit
+// at xw[q] and xw[q + 1] in the other colour's half (xw = x + Half::dx). The split-layout StencilRow.
 struct SplitRow {
+  const mg* __restrict cxl;
+  const mg* __restrict cxh;
+  const mg* __restrict dgx;
   const mg *xs, *xn, *xb, *xt;
   mg cyl, cyh, czl, czh, dyz;
   SplitRow(const Level& V, const mg* x, int j, int k)
-      : xs(x - V.L.s.sy), xn(x + V.L.s.sy), xb(x - V.L.s.sz), xt(x + V.L.s.sz), cyl(V.L.cl[1][j]), cyh(V.L.ch[1][j]),
-        czl(V.L.cl[2][k]), czh(V.L.ch[2][k]), dyz(V.L.dg[1][j] + V.L.dg[2][k]) {}
+      : cxl(V.cxl.data()), cxh(V.cxh.data()), dgx(V.dgx.data()), xs(x - V.L.s.sy), xn(x + V.L.s.sy),
+        xb(x - V.L.s.sz), xt(x + V.L.s.sz), cyl(V.L.cl[1][j]), cyh(V.L.ch[1][j]), czl(V.L.cl[2][k]),
+        czh(V.L.ch[2][k]), dyz(V.L.dg[1][j] + V.L.dg[2][k]) {}
+  mg diag(int q) const { return dgx[q] + dyz; }
+  mg apply(const mg* x, const mg* xw, int q) const {
+    return cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] + czh * xt[q] + diag(q) * x[q];
+  }
 };
+// The slots of one colour's half of a line (odd: the odd i) and the offset of their left x neighbour.
 struct Half {
   int lo, hi, dx;
   Half(const Level& V, bool odd)
@@ -134,9 +143,6 @@ struct Half {
 FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const real* rd, real* zd) {
   const Shape& s = V.L.s;
   const int he = V.he, ne = V.evens(), no = V.odds();
-  const mg* __restrict cxl = V.cxl.data();
-  const mg* __restrict cxh = V.cxh.data();
-  const mg* __restrict dgx = V.dgx.data();
   for (int j = 1; j <= s.ny; ++j) {
     const std::ptrdiff_t o = s(0, j, k);
     mg* __restrict x = V.x.data() + o;
@@ -144,6 +150,7 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
     const bool odd = ((colour + j + k) & 1) != 0;  // this colour's cells have odd i
     const Half h(V, odd);
     const int lo = h.lo, hi = h.hi;
+    const SplitRow r(V, x, j, k);
     if (zero) {
       if (rd) {
         const real* __restrict r = rd + o;
@@ -152,27 +159,17 @@ FLAPSTAB_KERNEL void relax_plane(Level& V, int k, int colour, bool zero, const r
 #pragma omp simd
         for (int m = 0; m < no; ++m) b[he + m] = mg(r[2 * m + 1]);
       }
-      const mg dyz = V.L.dg[1][j] + V.L.dg[2][k];
 #pragma omp simd
-      for (int q = lo; q <= hi; ++q) x[q] = b[q] / (dgx[q] + dyz);
+      for (int q = lo; q <= hi; ++q) x[q] = b[q] / r.diag(q);
       const Half other(V, !odd);
       std::fill(x + other.lo, x + other.hi + 1, mg(0));
       continue;
     }
-    const SplitRow r(V, x, j, k);
     const mg* __restrict xw = x + h.dx;  // x neighbours in the other colour's half
-    const mg* __restrict xs = r.xs;
-    const mg* __restrict xn = r.xn;
-    const mg* __restrict xb = r.xb;
-    const mg* __restrict xt = r.xt;
-    const mg cyl = r.cyl, cyh = r.cyh, czl = r.czl, czh = r.czh, dyz = r.dyz;
 #pragma omp simd
     for (int q = lo; q <= hi; ++q) {
-      const mg d = dgx[q] + dyz;
-      const mg id = mg(1) / d;  // the form of the stored-inverse smoother it replaced (x + omega id r)
-      x[q] = x[q] + omega * id *
-                        (b[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
-                                 czh * xt[q] + d * x[q]));
+      const mg id = mg(1) / r.diag(q);  // the form of the stored-inverse smoother it replaced (x + omega id r)
+      x[q] = x[q] + omega * id * (b[q] - r.apply(x, xw, q));
     }
     if (zd) {  // merge the halves: one loop that stores both i = 2m and 2m + 1 vectorises, two strided ones do not
       real* __restrict z = zd + o;
@@ -250,9 +247,6 @@ void fused_sweeps(Level& V, int first, int count, bool zero, const real* rd, rea
 FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* acc) {
   const Shape &s = C.L.s, &fs = F.L.s;
   const mg* __restrict vx = F.vx.data();
-  const mg* __restrict cxl = F.cxl.data();
-  const mg* __restrict cxh = F.cxh.data();
-  const mg* __restrict dgx = F.dgx.data();
   mg* __restrict ac = acc;
   std::fill(ac, ac + fs.nx + 2, mg(0));
   for (int k = F.f[2] * (K - 1) + 1; k <= F.f[2] * K; ++k)
@@ -261,20 +255,12 @@ FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* a
       const mg* __restrict x = F.x.data() + o;
       const mg* __restrict br = F.b.data() + o;
       const SplitRow r(F, x, j, k);
-      const mg* __restrict xs = r.xs;
-      const mg* __restrict xn = r.xn;
-      const mg* __restrict xb = r.xb;
-      const mg* __restrict xt = r.xt;
-      const mg cyl = r.cyl, cyh = r.cyh, czl = r.czl, czh = r.czh, dyz = r.dyz;
       const mg vjk = F.L.vol[1][j] * F.L.vol[2][k];
       for (bool odd : {false, true}) {
         const Half h(F, odd);
         const mg* __restrict xw = x + h.dx;
 #pragma omp simd
-        for (int q = h.lo; q <= h.hi; ++q)
-          ac[q] += vjk * vx[q] *
-                   (br[q] - (cxl[q] * xw[q] + cxh[q] * xw[q + 1] + cyl * xs[q] + cyh * xn[q] + czl * xb[q] +
-                             czh * xt[q] + (dgx[q] + dyz) * x[q]));
+        for (int q = h.lo; q <= h.hi; ++q) ac[q] += vjk * vx[q] * (br[q] - r.apply(x, xw, q));
       }
     }
   mg* __restrict out = C.b.data() + s(0, J, K);

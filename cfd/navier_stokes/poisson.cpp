@@ -68,11 +68,12 @@ PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool 
     fill_ghosts(p_, bc_);
     double pr;
     krylov::apply_and_dot(L_, p_.data(), q_.data(), r.data(), pq, pr);
-    if (!std::isfinite(pr / pq)) {  // breakdown (a zero or non-finite search direction): report, do not update
+    const double alpha = pr / pq;
+    if (!std::isfinite(alpha)) {  // breakdown (a zero or non-finite search direction): report, do not update
       st.breakdown = true;
       break;
     }
-    st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), pr / pq, first);
+    st.residual = krylov::update(L_, x.data(), r.data(), p_.data(), q_.data(), alpha, first);
     ++st.cycles;
     ++fcg;
   }

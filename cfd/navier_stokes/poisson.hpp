@@ -30,8 +30,8 @@ struct PoissonStats {
 // Plain multigrid iterations (x += M r with one single-precision V-cycle M, multigrid.hpp) while each cuts the
 // residual at least stationary_factor-fold, then flexible conjugate gradients in double precision preconditioned
 // by the same V-cycle. The divergence a moving body leaves is local and the smoother removes it fast (two or
-// three plain iterations per projection on the insect grids, each at about two thirds of a CG iteration's
-// memory traffic); on smooth right-hand sides and stretched cells the Krylov acceleration keeps the rate
+// three plain iterations per projection on the insect grids, each at about 60 % of a CG iteration's memory
+// traffic); on smooth right-hand sides and stretched cells the Krylov acceleration keeps the rate
 // (0.05-0.15 per iteration against 0.16-0.35 for plain cycles). Periodic and Neumann faces everywhere make L
 // singular: b's volume-weighted mean is removed.
 class Poisson {
