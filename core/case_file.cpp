@@ -431,6 +431,101 @@ Case load_case(const std::string& path) {
   if (c.derivatives.relative_step > 0.5) der.fail("relative_step", "too large", "a relative step below 0.5");
   der.reject_unknown();
 
+  Section fl = top.sub("flight", false);
+  auto& f = c.flight;
+  f.dof = fl.string("dof", false, f.dof, {"6dof", "longitudinal", "pitch", "translation"});
+  f.wingbeats = fl.positive_or("wingbeats", f.wingbeats, "wingbeats");
+  if (f.wingbeats > 1e5) fl.fail("wingbeats", fmt::format("too many: {}", f.wingbeats), "at most 100000 wingbeats");
+  f.samples_per_wingbeat = fl.integer_or("samples_per_wingbeat", f.samples_per_wingbeat, 1, 100000);
+  f.rtol = fl.positive_or("rtol", f.rtol, "(relative tolerance)");
+  if (f.rtol < 1e-14 || f.rtol > 1e-3) fl.fail("rtol", fmt::format("out of range: {}", f.rtol), "a tolerance in [1e-14, 1e-3]");
+  f.start = fl.string("start", false, f.start, {"periodic-orbit", "rest"});
+  Section pert = fl.sub("perturbation", false);
+  static const std::vector<std::pair<std::string, double>> pkeys = {
+      {"x_m", 1}, {"y_m", 1}, {"z_m", 1}, {"u_m_s", 1}, {"v_m_s", 1}, {"w_m_s", 1}, {"p_deg_s", deg}, {"q_deg_s", deg},
+      {"r_deg_s", deg}, {"phi_deg", deg}, {"theta_deg", deg}, {"psi_deg", deg}};
+  for (const auto& [k, unit] : pkeys)
+    if (pert.has(k)) {
+      const double v = pert.number(k, "a number");
+      f.perturbation.emplace_back(k.substr(0, k.find('_')), v * unit);
+    }
+  f.mode = pert.string("mode", false, "", {"longitudinal", "lateral"});
+  f.mode_amplitude = pert.positive_or("mode_amplitude", f.mode_amplitude, "(non-dimensional)");
+  if (f.mode_amplitude > 0.5) pert.fail("mode_amplitude", "too large for a perturbation", "at most 0.5");
+  pert.reject_unknown();
+  fl.reject_unknown();
+
+  Section ctl = top.sub("control", false);
+  auto& k = c.control;
+  k.type = ctl.string("type", false, k.type, {"none", "pitch", "state-feedback"});
+  k.update = ctl.string("update", false, k.update, {"continuous", "wingbeat"});
+  auto latency = [](Section& s, const std::string& key, double dflt) {
+    const double v = s.number_or(key, dflt, "a latency >= 0 in s");
+    if (v < 0) s.fail(key, fmt::format("must not be negative, got {}", v), "a latency >= 0 in s");
+    if (v > 10) s.fail(key, fmt::format("implausibly long: {} s", v), "a latency below 10 s");
+    return v;
+  };
+  Section pc = ctl.sub("pitch", false);
+  k.actuator = pc.string("actuator", false, k.actuator, trim_parameter_names());
+  k.pitch_gain = pc.number_or("pitch_gain", 0.0, "a number (deg of actuator per deg of pitch)");
+  k.rate_gain_s = pc.number_or("rate_gain_s", 0.0, "a number (deg of actuator per deg/s of pitch rate)");
+  k.pitch_latency_s = latency(pc, "pitch_latency_s", 0.0);
+  k.rate_latency_s = latency(pc, "rate_latency_s", 0.0);
+  k.filter_time_s = latency(pc, "filter_time_s", 0.0);
+  k.limit_deg = pc.positive_or("limit_deg", k.limit_deg, "deg (actuator unit)");
+  pc.reject_unknown();
+  if (k.type == "pitch" && !pc.present()) ctl.fail("pitch", "missing section", "[control.pitch] for type = \"pitch\"");
+  if (const toml::node* fb = ctl.node("feedback")) {
+    if (!fb->is_array_of_tables()) ctl.fail("feedback", "is not an array of tables", "[[control.feedback]] entries");
+    int i = 0;
+    for (const auto& e : *fb->as_array()) {
+      Section t(e.as_table(), path, fmt::format("control.feedback[{}]", i++));
+      ControlSettings::Term term;
+      term.state = t.string("state", true, {}, {"x", "y", "z", "u", "v", "w", "p", "q", "r", "phi", "theta", "psi"});
+      term.actuator = t.string("actuator", true, {}, trim_parameter_names());
+      term.gain = t.number("gain", "a number (actuator unit per SI unit of the state)");
+      term.latency_s = latency(t, "latency_s", 0.0);
+      term.filter_time_s = latency(t, "filter_time_s", 0.0);
+      t.reject_unknown();
+      k.feedback.push_back(term);
+    }
+  }
+  if (const toml::node* ac = ctl.node("actuator")) {
+    if (!ac->is_array_of_tables()) ctl.fail("actuator", "is not an array of tables", "[[control.actuator]] entries");
+    int i = 0;
+    for (const auto& e : *ac->as_array()) {
+      Section a(e.as_table(), path, fmt::format("control.actuator[{}]", i++));
+      TrimParameterSpec spec;
+      spec.name = a.string("name", true, {}, trim_parameter_names());
+      spec.lower = a.number("lower", "a number (lower limit, parameter unit)");
+      spec.upper = a.number("upper", "a number (upper limit, parameter unit)");
+      if (!(spec.lower < spec.upper)) a.fail("upper", "not above 'lower'", "upper > lower");
+      a.reject_unknown();
+      k.actuators.push_back(spec);
+    }
+  }
+  if (k.type == "state-feedback") {
+    if (k.feedback.empty()) ctl.fail("feedback", "missing", "[[control.feedback]] entries for type = \"state-feedback\"");
+    for (std::size_t i = 0; i < k.feedback.size(); ++i)
+      if (std::none_of(k.actuators.begin(), k.actuators.end(),
+                       [&](const TrimParameterSpec& a) { return a.name == k.feedback[i].actuator; }))
+        throw InputError(path, fmt::format("control.feedback[{}].actuator", i),
+                         "\"" + k.feedback[i].actuator + "\" has no [[control.actuator]] entry with its limits",
+                         "a [[control.actuator]] with name, lower, upper");
+  }
+  Section cm = ctl.sub("map", false);
+  k.map_gain = cm.string("gain", false, k.map_gain, {"pitch", "rate"});
+  k.map_gain_min = cm.number_or("gain_min", k.map_gain_min, "a number");
+  k.map_gain_max = cm.number_or("gain_max", k.map_gain_max, "a number");
+  if (!(k.map_gain_min < k.map_gain_max)) cm.fail("gain_max", "not above gain_min", "gain_max > gain_min");
+  k.map_gains = cm.integer_or("gains", k.map_gains, 2, 2000);
+  k.map_latency_max_s = latency(cm, "latency_max_s", 0.0);
+  k.map_latencies = cm.integer_or("latencies", k.map_latencies, 2, 2000);
+  k.map_check_points = cm.integer_or("check_points", k.map_check_points, 0, 20);
+  k.map_check_wingbeats = cm.positive_or("check_wingbeats", k.map_check_wingbeats, "wingbeats");
+  cm.reject_unknown();
+  ctl.reject_unknown();
+
   Section out = top.sub("output", false);
   c.output_directory = out.string("directory", false, "out");
   out.reject_unknown();

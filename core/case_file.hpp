@@ -76,6 +76,46 @@ struct DerivativeSettings {
   double relative_step = 0.01;
 };
 
+// [flight]: nonlinear free flight (flapstab fly; flight/free_flight.hpp).
+struct FlightSettings {
+  std::string dof = "longitudinal";   // "6dof" | "longitudinal" | "pitch" | "translation"
+  double wingbeats = 20;
+  int samples_per_wingbeat = 40;
+  double rtol = 1e-9;
+  std::string start = "periodic-orbit";  // "periodic-orbit" (cyclic trim) | "rest" (the perturbation alone)
+  // [flight.perturbation]: added to the start state. Keys u_m_s v_m_s w_m_s p_deg_s q_deg_s r_deg_s phi_deg
+  // theta_deg psi_deg x_m y_m z_m, or mode = "longitudinal" | "lateral" (the most unstable Floquet mode of that
+  // subsystem) scaled to mode_amplitude (non-dimensional max-norm).
+  std::vector<std::pair<std::string, double>> perturbation;  // (state name, SI value)
+  std::string mode;
+  double mode_amplitude = 1e-3;
+};
+
+// [control]: the feedback law (flight/controller.hpp) and the (gain, latency) map (flapstab control-map).
+struct ControlSettings {
+  std::string type = "none";          // "none" | "pitch" | "state-feedback"
+  std::string update = "continuous";  // "continuous" | "wingbeat"
+  // [control.pitch]
+  std::string actuator = "stroke_plane_deg";
+  double pitch_gain = 0, rate_gain_s = 0, pitch_latency_s = 0, rate_latency_s = 0, filter_time_s = 0;
+  double limit_deg = 30;
+  // [[control.feedback]] and [[control.actuator]] (state-feedback)
+  struct Term {
+    std::string state, actuator;
+    double gain = 0, latency_s = 0, filter_time_s = 0;
+  };
+  std::vector<Term> feedback;
+  std::vector<TrimParameterSpec> actuators;  // name with absolute lower/upper limits
+  // [control.map]
+  std::string map_gain = "pitch";     // "pitch" | "rate": the gain on the map's first axis
+  double map_gain_min = -2, map_gain_max = 2;
+  int map_gains = 50;
+  double map_latency_max_s = 0;       // 0: three wingbeats
+  int map_latencies = 50;
+  int map_check_points = 3;           // simulated points each side of the boundary
+  double map_check_wingbeats = 15;
+};
+
 struct Case {
   std::string path;          // the case file
   std::string description;
@@ -86,6 +126,8 @@ struct Case {
   AeroSettings aero;
   TrimSettings trim;
   DerivativeSettings derivatives;
+  FlightSettings flight;
+  ControlSettings control;
   std::string output_directory = "out";
 };
 

@@ -31,6 +31,9 @@ Configuration::Configuration(const Insect& insect, const Kinematics& kin)
   o_ = sum / n / insect.total_mass();
 }
 
+Configuration::Configuration(const Insect& insect, const Kinematics& kin, const Vec3& reference_point)
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)), o_(reference_point) {}
+
 Vec3 Configuration::wing_cg_about_body_cg(Side s, double t) const {
   Mat3 R;
   Vec3 w, wd;

@@ -47,6 +47,9 @@ struct MassState {
 class Configuration {
  public:
   Configuration(const Insect& insect, const Kinematics& kin);
+  // With the reference point O given (body-CoM-origin frame, S axes, m) instead of the cycle-mean CoM of
+  // these kinematics: free flight keeps O fixed in the body while a controller changes the kinematics.
+  Configuration(const Insect& insect, const Kinematics& kin, const Vec3& reference_point);
   const Insect& insect() const { return insect_; }
   const Kinematics& kinematics() const { return kin_; }
   // Reference point O in the body-CoM-origin frame with S axes (m).

@@ -49,6 +49,7 @@ class Section {
       : t_(t), file_(std::move(file)), path_(std::move(path)) {}
 
   bool present() const { return t_ != nullptr; }
+  const toml::table* table() const { return t_; }
   std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
   [[noreturn]] void fail(const std::string& k, const std::string& problem, const std::string& expected) const {
     throw InputError(file_, key(k), problem, expected);
@@ -243,8 +244,8 @@ DerivativeTable read_derivative_table(const std::string& path) {
   t.reference.g = ref.optional_positive("g", "m/s^2").value_or(standard_gravity);
 
   Section der = top.sub("derivatives");
-  der.reject_unknown({"longitudinal", "lateral", "coupling"}, [](const std::string&) {
-    return std::string(": [derivatives] holds only the tables longitudinal, lateral and coupling");
+  der.reject_unknown({"longitudinal", "lateral", "coupling", "control"}, [](const std::string&) {
+    return std::string(": [derivatives] holds only the tables longitudinal, lateral, coupling and control");
   });
   Section lon = der.sub("longitudinal"), lat = der.sub("lateral"), cpl = der.sub("coupling");
   t.has_longitudinal = lon.present();
@@ -279,6 +280,22 @@ DerivativeTable read_derivative_table(const std::string& path) {
   if (t.has_longitudinal) read_section(lon, longitudinal_derivative_names(), true, t);
   if (t.has_lateral) read_section(lat, lateral_derivative_names(), true, t);
   if (t.has_coupling) read_section(cpl, coupling_derivative_names(), false, t);
+  Section ctl = der.sub("control");
+  if (const toml::table* ct = ctl.table()) {
+    static const std::vector<std::string> rows{"X", "Y", "Z", "L", "M", "N"};
+    for (const auto& [k, v] : *ct) {
+      const std::string name(k.str());
+      Section col = ctl.sub(name);
+      if (!col.present()) ctl.fail(name, "is not a table", "[derivatives.control." + name + "] with X Y Z L M N");
+      col.reject_unknown(rows);
+      ControlDerivative cd;
+      cd.parameter = name;
+      cd.unit = name.size() > 3 && name.substr(name.size() - 3) == "_hz" ? "Hz" : "deg";
+      for (int i = 0; i < 6; ++i)
+        cd.nd(i) = col.optional_number(rows[std::size_t(i)], "a finite number (per " + cd.unit + ")").value_or(0.0);
+      t.control.push_back(cd);
+    }
+  }
   return t;
 }
 
@@ -324,6 +341,14 @@ std::string derivative_table_toml(const DerivativeTable& t) {
   bool any_coupling = t.has_coupling;
   for (const auto& n : coupling_derivative_names()) any_coupling = any_coupling || t.at(n) != 0;
   if (any_coupling) section("derivatives.coupling", coupling_derivative_names());
+  if (!t.control.empty())
+    s += "\n# Control derivatives: d[X Y Z L M N]+ per unit of the named kinematic parameter (deg or Hz), moments\n"
+         "#   about the trimmed reference point, with the gravitational moment of the centre of mass it moves.\n";
+  static const char* rows[6] = {"X", "Y", "Z", "L", "M", "N"};
+  for (const auto& c : t.control) {
+    s += "\n[derivatives.control." + c.parameter + "]\n";
+    for (int i = 0; i < 6; ++i) s += std::string(rows[i]) + " = " + toml_number(c.nd(i)) + "\n";
+  }
   return s;
 }
 

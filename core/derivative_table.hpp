@@ -2,7 +2,8 @@
 //
 // File format (TOML, docs/derivative-table.md): [reference] U, c, S_t, rho, frequency;
 // [mass] m, Ixx, Iyy, Izz, Ixz; [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
-// [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp).
+// [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp);
+// optional [derivatives.control.<parameter>] X Y Z L M N per unit of the parameter (e.g. stroke_plane_deg).
 // Dimensional entries SI; derivatives non-dimensional in hover stability axes (ARCHITECTURE.md):
 // forces / (1/2 rho U^2 S_t), moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U.
 #pragma once
@@ -31,12 +32,22 @@ struct MassProperties {
   double Ixx = 0, Iyy = 0, Izz = 0, Ixz = 0;  // kg m^2, about O in stability axes
 };
 
+// A control derivative column: d[X Y Z L M N]+ / d(parameter) of one actuated kinematic parameter, per unit of
+// the parameter (deg or Hz), forces / (1/2 rho U^2 S_t), moments / (1/2 rho U^2 S_t c) about the trimmed O,
+// including the gravitational moment of the centre of mass the parameter moves.
+struct ControlDerivative {
+  std::string parameter;  // trim parameter name, e.g. "stroke_plane_deg"
+  std::string unit;       // "deg" | "Hz"
+  Eigen::Matrix<double, 6, 1> nd = Eigen::Matrix<double, 6, 1>::Zero();
+};
+
 // Non-dimensional derivatives, 6 x 6: rows X Y Z L M N, columns u v w p q r.
 struct DerivativeTable {
   ReferenceQuantities reference;
   MassProperties mass;
   Eigen::Matrix<double, 6, 6> nd = Eigen::Matrix<double, 6, 6>::Zero();
   bool has_longitudinal = false, has_lateral = false, has_coupling = false;
+  std::vector<ControlDerivative> control;  // [derivatives.control.<parameter>]: X Y Z L M N (optional)
   std::string source;  // where the table came from (file path or "flapstab <model>")
 
   // Element by name, e.g. "Xu", "Mq", "Lp" (rows X Y Z L M N, columns u v w p q r).

@@ -196,7 +196,7 @@ FloquetAnalysis floquet_analysis(const std::string& name, const std::vector<std:
     f.notices.push_back("the Floquet exponent matrix is not real to 1e-8 (defective monodromy?): modes not labelled");
     return f;
   }
-  StateSpace sys{name + " Floquet exponent matrix", state_order, Bc.real()};
+  StateSpace sys{name + " Floquet exponent matrix", state_order, Bc.real(), {}, {}};
   f.modes = analyse_modes(sys, ref, options);
   return f;
 }

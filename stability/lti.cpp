@@ -53,7 +53,13 @@ StateSpace longitudinal_system(const DerivativeTable& t) {
        D(Z, u) / nd.m,   D(Z, w) / nd.m,   D(Z, q) / nd.m,   0,
        D(M, u) / nd.Iyy, D(M, w) / nd.Iyy, D(M, q) / nd.Iyy, 0,
        0,                0,                1,                0;
-  return {"longitudinal", {"u", "w", "q", "theta"}, A};
+  StateSpace s{"longitudinal", {"u", "w", "q", "theta"}, A, Eigen::MatrixXd::Zero(4, Eigen::Index(t.control.size())), {}};
+  for (std::size_t k = 0; k < t.control.size(); ++k) {
+    const auto& c = t.control[k].nd;
+    s.B.col(Eigen::Index(k)) << c(X) / nd.m, c(Z) / nd.m, c(M) / nd.Iyy, 0;
+    s.input_order.push_back(t.control[k].parameter);
+  }
+  return s;
 }
 
 StateSpace lateral_system(const DerivativeTable& t) {
@@ -67,7 +73,14 @@ StateSpace lateral_system(const DerivativeTable& t) {
        roll_row(D, nd, v), roll_row(D, nd, p), roll_row(D, nd, r), 0,
        yaw_row(D, nd, v),  yaw_row(D, nd, p),  yaw_row(D, nd, r),  0,
        0,                  1,                  0,                  0;
-  return {"lateral", {"v", "p", "r", "phi"}, A};
+  StateSpace s{"lateral", {"v", "p", "r", "phi"}, A, Eigen::MatrixXd::Zero(4, Eigen::Index(t.control.size())), {}};
+  for (std::size_t k = 0; k < t.control.size(); ++k) {
+    Eigen::Matrix<double, 6, 6> Dc = Eigen::Matrix<double, 6, 6>::Zero();
+    Dc.col(0) = t.control[k].nd;
+    s.B.col(Eigen::Index(k)) << Dc(Y, 0) / nd.m, roll_row(Dc, nd, 0), yaw_row(Dc, nd, 0), 0;
+    s.input_order.push_back(t.control[k].parameter);
+  }
+  return s;
 }
 
 StateSpace coupled_system(const DerivativeTable& t) {
@@ -90,7 +103,16 @@ StateSpace coupled_system(const DerivativeTable& t) {
   A(1, 6) = nd.g;   // v' = ... + g+ phi
   A(6, 3) = 1;      // phi' = p
   A(7, 4) = 1;      // theta' = q
-  return {"6dof", {"u", "v", "w", "p", "q", "r", "phi", "theta"}, A};
+  StateSpace s{"6dof", {"u", "v", "w", "p", "q", "r", "phi", "theta"}, A,
+               Eigen::MatrixXd::Zero(8, Eigen::Index(t.control.size())), {}};
+  for (std::size_t k = 0; k < t.control.size(); ++k) {
+    Eigen::Matrix<double, 6, 6> Dc = Eigen::Matrix<double, 6, 6>::Zero();
+    Dc.col(0) = t.control[k].nd;
+    s.B.col(Eigen::Index(k)) << Dc(X, 0) / nd.m, Dc(Y, 0) / nd.m, Dc(Z, 0) / nd.m, roll_row(Dc, nd, 0),
+        Dc(M, 0) / nd.Iyy, yaw_row(Dc, nd, 0), 0, 0;
+    s.input_order.push_back(t.control[k].parameter);
+  }
+  return s;
 }
 
 }  // namespace flapstab

@@ -11,11 +11,14 @@
 
 namespace flapstab {
 
-// d/dt+ x = A x, with the state order named.
+// d/dt+ x = A x + B delta, with the state and input orders named. B has one column per control derivative of
+// the table (input delta in the parameter's unit, deg or Hz); it is empty when the table has none.
 struct StateSpace {
   std::string name;                      // "longitudinal" | "lateral" | "6dof" (or a caller's name)
   std::vector<std::string> state_order;  // e.g. {"u", "w", "q", "theta"}
   Eigen::MatrixXd A;                     // non-dimensional system matrix
+  Eigen::MatrixXd B;                     // non-dimensional input matrix (per t+ and per parameter unit)
+  std::vector<std::string> input_order;  // control parameter names, e.g. {"stroke_plane_deg"}
 };
 
 struct NonDimensionalParameters {
