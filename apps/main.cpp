@@ -5,6 +5,7 @@
 #include "apps/cfd_command.hpp"
 #include "apps/commands.hpp"
 #include "apps/floquet_command.hpp"
+#include "apps/flight_command.hpp"
 #include "core/errors.hpp"
 
 namespace {
@@ -66,6 +67,26 @@ int main(int argc, char** argv) {
   cfd->add_flag("--dry-run", co.dry_run, "build the grid, run the checks, time two steps and print the estimate; "
                                          "write nothing");
   cfd->add_flag("-q,--quiet", co.quiet, "no estimate or progress lines");
+  flapstab::FlightCommandOptions fo;
+  CLI::App* fly = app.add_subcommand(
+      "fly", "nonlinear free flight of the trimmed insect from its periodic hover orbit (or from rest) with the "
+             "[flight] perturbation and the [control] feedback law: trajectory.csv, run.json, response.svg in DIR");
+  fly->add_option("case", fo.case_path, "case file (TOML) with [flight] and optional [control] tables")
+      ->required()->check(CLI::ExistingFile);
+  fly->add_option("-o,--output", fo.output_dir, "output directory (default: the case's [output] directory)");
+  fly->add_option("--dof", fo.dof, "degrees of freedom: 6dof | longitudinal | pitch | translation (overrides [flight] dof)")
+      ->check(CLI::IsMember({"6dof", "longitudinal", "pitch", "translation"}));
+  fly->add_option("--wingbeats", fo.wingbeats, "duration in wingbeats (overrides [flight] wingbeats)")
+      ->check(CLI::Range(1e-3, 1e5));
+  fly->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
+  CLI::App* cmap = app.add_subcommand(
+      "control-map", "delay-exact stability map of the [control.pitch] feedback over (gain, latency): spectral abscissa "
+                     "of the averaged loop, the critical latency per gain, the best gain, the periodic (Floquet) loop "
+                     "at the best gain, simulated check points; control_map.json, control_map.csv, control_map.svg");
+  cmap->add_option("case", fo.case_path, "case file (TOML) with [control] type = \"pitch\" and [control.pitch], [control.map]")
+      ->required()->check(CLI::ExistingFile);
+  cmap->add_option("-o,--output", fo.output_dir, "output directory (default: the case's [output] directory)");
+  cmap->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
   CLI11_PARSE(app, argc, argv);
   try {
     if (trim->parsed()) return flapstab::run_trim_hover(o);
@@ -73,6 +94,8 @@ int main(int argc, char** argv) {
     if (an->parsed()) return flapstab::run_analyze(o);
     if (cfd->parsed()) return flapstab::run_cfd_command(co);
     if (floq->parsed()) return flapstab::run_floquet(o);
+    if (fly->parsed()) return flapstab::run_fly(fo);
+    if (cmap->parsed()) return flapstab::run_control_map(fo);
     if (stab->parsed()) {
       if (o.case_path.empty() == o.derivatives_path.empty()) {
         fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");

@@ -1,6 +1,7 @@
 // gnuplot-drawn SVG figures: data and script go to a temporary directory, gnuplot writes the SVG.
 #include "apps/plots.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fmt/format.h>
@@ -95,6 +96,46 @@ std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {
   for (std::size_t i = 0; i < p.groups.size(); ++i)
     plot += fmt::format("{}'d0.dat' using {}:xtic(1) title columnheader", i ? ", " : "", i + 2);
   return run_gnuplot(script + plot + "\n", {d}, why);
+}
+
+std::optional<std::string> render_svg(const MapPlot& p, std::string& why) {
+  // gnuplot's nonuniform matrix: first row n, x_1..x_n; then y_j, z(x_1, y_j) .. z(x_n, y_j).
+  std::string d = fmt::format("{}", p.x.size());
+  for (double x : p.x) d += fmt::format(" {:.10g}", x);
+  d += "\n";
+  double zmax = p.zlimit;
+  for (std::size_t j = 0; j < p.y.size(); ++j) {
+    d += fmt::format("{:.10g}", p.y[j]);
+    for (std::size_t i = 0; i < p.x.size(); ++i) {
+      d += fmt::format(" {:.10g}", p.z[i][j]);
+      if (p.zlimit <= 0 && std::isfinite(p.z[i][j])) zmax = std::max(zmax, std::abs(p.z[i][j]));
+    }
+    d += "\n";
+  }
+  if (!(zmax > 0)) zmax = 1;
+  std::vector<std::string> data{d};
+  std::string script = fmt::format(
+      "set title {}\nset xlabel {}\nset ylabel {}\nset cblabel {}\nset key outside right\n"
+      "set palette defined (-1 '#2166ac', 0 '#f7f7f7', 1 '#b2182b')\nset cbrange [{}:{}]\n"
+      "set xrange [{}:{}]\nset yrange [{}:{}]\n",
+      quote(p.title), quote(p.xlabel), quote(p.ylabel), quote(p.cblabel), -zmax, zmax, p.x.front(), p.x.back(),
+      p.y.front(), p.y.back());
+  std::string plot = "plot 'd0.dat' nonuniform matrix with image notitle";
+  auto add = [&](const Series& s, const char* style) {
+    std::string e;
+    for (std::size_t k = 0; k < s.x.size(); ++k)
+      if (std::isfinite(s.x[k]) && std::isfinite(s.y[k])) e += fmt::format("{:.10g} {:.10g}\n", s.x[k], s.y[k]);
+    if (e.empty()) e = "nan nan\n";
+    data.push_back(e);
+    plot += fmt::format(", 'd{}.dat' using 1:2 with {} title {}", data.size() - 1, style, quote(s.title));
+  };
+  for (const auto& s : p.lines) add(s, "lines lw 2 lc rgb 'black'");
+  int pt = 7;
+  for (const auto& s : p.points) {
+    add(s, fmt::format("points pt {} ps 1.4", pt).c_str());
+    pt += 2;
+  }
+  return run_gnuplot(script + plot + "\n", data, why);
 }
 
 }  // namespace flapstab

@@ -35,4 +35,14 @@ struct BarPlot {
 };
 std::optional<std::string> render_svg(const BarPlot& plot, std::string& why);
 
+// A colour map z(x_i, y_j) with lines and marked points over it (e.g. a stability map with its boundary).
+struct MapPlot {
+  std::string title, xlabel, ylabel, cblabel;
+  std::vector<double> x, y;
+  std::vector<std::vector<double>> z;  // z[i][j] at (x[i], y[j])
+  double zlimit = 0;                   // colour range [-zlimit, zlimit] (diverging; 0: from the data)
+  std::vector<Series> lines, points;
+};
+std::optional<std::string> render_svg(const MapPlot& plot, std::string& why);
+
 }  // namespace flapstab

@@ -2,7 +2,9 @@
 // kinematic parameters, applied continuously or sampled once per wingbeat and held.
 //
 // Each term senses one body state x_j (core/body_state.hpp names) after its latency tau, subtracts the hover
-// reference (the cycle mean of the trimmed periodic orbit), optionally low-pass filters it
+// reference x_j,ref (by default the trimmed periodic orbit at the sensed instant, so the loop acts on the
+// deviations the linear analyses describe; or the orbit's cycle mean, so the wingbeat-frequency rocking of the
+// body is fed back too), optionally low-pass filters it
 // (T_f s' = x_j(t - tau) - x_j,ref - s), and adds -gain * s to its actuator's command:
 //   delta p_a(t) = clamp(p_a,trim - sum_terms(a) gain * s, lower_a, upper_a) - p_a,trim.
 // The seed's pitch controller is two such terms, on pitch angle theta and pitch rate q, acting on the relative
@@ -33,6 +35,8 @@ struct ControllerSpec {
   std::vector<TrimParameterSpec> actuators;
   std::vector<FeedbackTerm> terms;
   ControlUpdate update = ControlUpdate::continuous;
+  // true: x_j,ref(t) = the periodic orbit at the sensed instant; false: its cycle mean.
+  bool sense_orbit_deviation = true;
   bool empty() const { return terms.empty(); }
   double max_latency() const;
   double min_positive_latency() const;  // 0 when no term has a latency

@@ -110,7 +110,7 @@ class FlightSystem {
   double sensed_raw(const Term& term, double t, const BodyStateVector& x_now) const {
     const double td = t - term.spec.latency_s;
     const double v = term.spec.latency_s > 0 ? history_.at(td)(term.state) : x_now(term.state);
-    return v - ref_.mean(term.state);
+    return v - (ctrl_.sense_orbit_deviation ? ref_.state(td)(term.state) : ref_.mean(term.state));
   }
   std::vector<double> law(double t, const Eigen::VectorXd& y) const {
     std::vector<double> u(dyn_.actuators().size(), 0.0);
@@ -245,6 +245,36 @@ FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ct
   res.rhs_evaluations = dyn.evaluations() - evals0;
   res.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
+}
+
+GrowthEstimate wingbeat_growth(const FlightResult& r, const ReferenceOrbit& reference, const ReferenceQuantities& ref,
+                               double T, const std::vector<int>& states, int first) {
+  GrowthEstimate g;
+  for (const FlightSample& s : r.samples) {
+    const int k = std::min(int(std::floor(s.t / T + 1e-9)), int(std::floor(r.samples.back().t / T - 1e-9)));
+    if (k < 0) continue;
+    if (std::size_t(k) >= g.deviation.size()) g.deviation.resize(std::size_t(k) + 1, 0.0);
+    const BodyStateVector d = s.x - reference.state(s.t);
+    double m = 0;
+    for (int i : states) {
+      const double sc = i >= 3 && i < 6 ? 1 / ref.U : (i >= 6 && i < 9 ? ref.c / ref.U : (i < 3 ? 1 / ref.c : 1.0));
+      m = std::max(m, std::abs(d(i)) * sc);
+    }
+    g.deviation[std::size_t(k)] = std::max(g.deviation[std::size_t(k)], m);
+  }
+  const int n = int(g.deviation.size());
+  g.last = n - 1;
+  g.first = first >= 0 ? std::min(first, g.last - 1) : n / 2;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int cnt = 0;
+  for (int k = g.first; k <= g.last; ++k) {
+    if (!(g.deviation[std::size_t(k)] > 0)) continue;
+    const double y = std::log(g.deviation[std::size_t(k)]);
+    sx += k, sy += y, sxx += double(k) * k, sxy += k * y;
+    ++cnt;
+  }
+  g.per_wingbeat = cnt >= 2 ? (cnt * sxy - sx * sy) / (cnt * sxx - sx * sx) : std::nan("");
+  return g;
 }
 
 }  // namespace flapstab

@@ -56,4 +56,15 @@ FlightResult simulate_flight(const FlightDynamics& dynamics, const ControllerSpe
                              const ReferenceOrbit& reference, const ReferenceQuantities& ref,
                              const FlightOptions& options);
 
+// Growth of the deviation from the reference orbit: per wingbeat k, the largest non-dimensional max-norm of
+// x - x_ref over the states (velocities / U, rates c / U, angles rad); the rate is the least-squares slope of
+// log(deviation) over wingbeats [first, last] (per wingbeat; > 0 grows).
+struct GrowthEstimate {
+  std::vector<double> deviation;  // per wingbeat
+  double per_wingbeat = 0;
+  int first = 0, last = 0;
+};
+GrowthEstimate wingbeat_growth(const FlightResult& r, const ReferenceOrbit& reference, const ReferenceQuantities& ref,
+                               double period, const std::vector<int>& states, int first_wingbeat = -1);
+
 }  // namespace flapstab

@@ -1,0 +1,61 @@
+// The hover's linear models for flight control, computed once.
+#include "flight/hover_model.hpp"
+
+#include <chrono>
+#include <fmt/format.h>
+#include "core/errors.hpp"
+#include "stability/floquet.hpp"
+
+namespace flapstab {
+
+HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
+                       int phases) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_cyclic_trim_case(c, model);
+  HoverModel h;
+  h.averaged_trim = trim_hover(c, model);
+  if (!h.averaged_trim.converged)
+    throw SolveError(fmt::format("{}: the averaged trim did not converge ({})", c.path, h.averaged_trim.message));
+  h.cyclic = cyclic_trim(c, model, h.averaged_trim);
+  if (!h.cyclic.converged)
+    throw SolveError(fmt::format("{}: cyclic trim did not converge ({}); periodicity residual {:.2e}", c.path,
+                                 h.cyclic.message, h.cyclic.residual));
+  const Kinematics& kin = h.cyclic.kinematics;
+  h.derivatives = cycle_averaged_derivatives(model, c.insect, kin, c.fluid, c.derivatives.relative_step);
+  const ReferenceQuantities& ref = h.derivatives.table.reference;
+  h.control = control_derivatives(model, c.insect, kin, actuators, ref);
+  h.derivatives.table.control = h.control.columns;
+  const int N = phases > 0 ? phases : c.aero.quasi_steady.samples_per_cycle;
+  const InstantaneousAero aero(model, c.insect, kin);
+  h.orbit = periodic_orbit(aero, h.cyclic.initial_state, N);
+  h.phase = phase_resolved_derivatives(aero, h.orbit, ref, c.derivatives.relative_step);
+  h.longitudinal = averaged_plant(longitudinal_system(h.derivatives.table), ref);
+  h.lateral = averaged_plant(lateral_system(h.derivatives.table), ref);
+  h.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return h;
+}
+
+BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string& subsystem, double amplitude,
+                                          std::complex<double>* multiplier) {
+  const bool lon = subsystem == "longitudinal";
+  const std::vector<int> idx = lon ? std::vector<int>{0, 2, 4, 7} : std::vector<int>{1, 3, 5, 6};
+  const std::vector<std::string> names = lon ? std::vector<std::string>{"u", "w", "q", "theta"}
+                                             : std::vector<std::string>{"v", "p", "r", "phi"};
+  Eigen::MatrixXd M(4, 4);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) M(i, j) = h.cyclic.monodromy(idx[std::size_t(i)], idx[std::size_t(j)]);
+  const Eigen::EigenSolver<Eigen::MatrixXd> es(M);
+  int k = 0;
+  for (int i = 1; i < 4; ++i)
+    if (std::abs(es.eigenvalues()(i)) > std::abs(es.eigenvalues()(k))) k = i;
+  if (multiplier) *multiplier = es.eigenvalues()(k);
+  const Eigen::VectorXd scale = nondimensional_state_scale(names, h.derivatives.table.reference);
+  Eigen::VectorXd v = es.eigenvectors().col(k).real();
+  if (v.cwiseAbs().maxCoeff() == 0) v = es.eigenvectors().col(k).imag();
+  v *= amplitude / (scale.asDiagonal() * v).cwiseAbs().maxCoeff();
+  BodyStateVector d = BodyStateVector::Zero();
+  for (int i = 0; i < 4; ++i) d(linear_state_index[idx[std::size_t(i)]]) = v(i);
+  return d;
+}
+
+}  // namespace flapstab

@@ -1,0 +1,34 @@
+// The linear models of the hover that flight control is analysed on, computed once: averaged and cyclic trim,
+// the periodic orbit, cycle-averaged stability and control derivatives, phase-resolved derivatives and the
+// open-loop Floquet monodromy (the cyclic trim's flow sensitivity).
+#pragma once
+#include <vector>
+#include "cfd/derivatives.hpp"
+#include "cfd/phase_derivatives.hpp"
+#include "flight/control_analysis.hpp"
+#include "flight/control_derivatives.hpp"
+#include "trim/cyclic.hpp"
+
+namespace flapstab {
+
+struct HoverModel {
+  TrimResult averaged_trim;
+  CyclicTrimResult cyclic;                 // the periodic hover orbit and its monodromy
+  std::vector<BodyStateVector> orbit;      // at t_k = k T / N
+  DerivativeResult derivatives;            // about the cyclic trim's kinematics, with control columns
+  ControlDerivativeResult control;
+  PhaseDerivatives phase;
+  LinearPlant longitudinal, lateral;       // averaged, SI, with B for the actuators
+  double wall_time_s = 0;
+};
+
+// For a symmetric case with an instantaneous model. Throws InputError / SolveError as floquet analysis does.
+HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
+                       int phases = 0);
+
+// The most unstable Floquet mode of the [u w q theta] ("longitudinal") or [v p r phi] ("lateral") subsystem as a
+// BodyStateVector perturbation (real part of the eigenvector), scaled to non-dimensional max-norm `amplitude`.
+BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string& subsystem, double amplitude,
+                                          std::complex<double>* multiplier = nullptr);
+
+}  // namespace flapstab
