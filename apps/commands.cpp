@@ -15,6 +15,7 @@
 #include "cfd/derivatives.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "flight/control_derivatives.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
@@ -45,6 +46,15 @@ void print_trim(const Case& c, const TrimResult& t, double seconds) {
              t.relative_force_residual, t.relative_moment_residual, t.mean_power);
 }
 
+// Stability derivatives and, for every parameter the case can actuate, the control derivatives.
+DerivativeResult derivatives_with_control(const Case& c, const AeroModel& model, const Kinematics& kin) {
+  DerivativeResult d = cycle_averaged_derivatives(model, c.insect, kin, c.fluid, c.derivatives.relative_step);
+  const ControlDerivativeResult cd = control_derivatives(model, c.insect, kin, actuated_parameters(c), d.table.reference);
+  d.table.control = cd.columns;
+  d.model_runs += cd.model_runs;
+  return d;
+}
+
 }  // namespace
 
 int run_trim_hover(const CommandOptions& o) {
@@ -68,8 +78,7 @@ int run_derivatives(const CommandOptions& o) {
   const Case c = load_case(o.case_path);
   const auto model = make_aero_model(c);
   const TrimResult t = trimmed(c, *model);
-  const DerivativeResult d =
-      cycle_averaged_derivatives(*model, c.insect, t.kinematics, c.fluid, c.derivatives.relative_step);
+  const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
   const double secs = seconds_since(t0);
   nlohmann::json j = metadata_json(c, "derivatives");
   j["trim"] = trim_json(t);
@@ -141,8 +150,7 @@ int run_stability(const CommandOptions& o) {
     const Case c = load_case(o.case_path);
     const auto model = make_aero_model(c);
     const TrimResult t = trimmed(c, *model);
-    const DerivativeResult d =
-        cycle_averaged_derivatives(*model, c.insect, t.kinematics, c.fluid, c.derivatives.relative_step);
+    const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
     table = d.table;
     j = metadata_json(c, "stability");
     j["trim"] = trim_json(t);
@@ -167,8 +175,7 @@ int run_analyze(const CommandOptions& o) {
   const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
   const auto model = make_aero_model(c);
   const TrimResult t = trimmed(c, *model);
-  const DerivativeResult d =
-      cycle_averaged_derivatives(*model, c.insect, t.kinematics, c.fluid, c.derivatives.relative_step);
+  const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
   const StabilityReport rep = stability_of(d.table, "6dof");
   AeroRunOptions fine;
   fine.samples_per_cycle = 256;

@@ -467,6 +467,22 @@ int run_control_map(const FlightCommandOptions& o) {
                                         {"gravity_moment_M_N_m_per_unit", h.control.gravity_si(4, Eigen::Index(k))}});
   }
   j["period_s"] = T;
+  std::vector<ComSweepPoint> sweep;
+  if (o.com_sweep) {
+    const double cbar = h.derivatives.table.reference.c;
+    std::vector<double> dz;
+    for (int k = -4; k <= 4; ++k) dz.push_back(0.25 * k * cbar);
+    sweep = com_height_sweep(c, *model, dz, c.control.map_check_wingbeats);
+    json sj = json::array();
+    for (const auto& p : sweep)
+      sj.push_back({{"dz_m", p.dz}, {"dz_over_chord", p.dz / cbar}, {"com_below_neutral_axis_m", p.com_below_axis_m},
+                    {"lti_growth_per_wingbeat", p.lti_growth}, {"lti_mode_oscillatory", p.lti_oscillatory},
+                    {"floquet_growth_per_wingbeat", p.floquet_growth},
+                    {"simulated_growth_per_wingbeat", std::isfinite(p.simulated_growth) ? json(p.simulated_growth) : json("diverged")}});
+    j["com_sweep"] = {{"note", "centre of mass moved by dz (+down) relative to the wing hinges, re-trimmed, open loop; "
+                               "largest longitudinal growth per wingbeat"},
+                      {"points", sj}};
+  }
   j["wall_time_s"] = seconds_since(t0);
 
   std::string csv = "gain,latency_s,latency_wingbeats,spectral_abscissa_per_s,growth_per_wingbeat,stable\n";
@@ -523,6 +539,13 @@ int run_control_map(const FlightCommandOptions& o) {
     if (!checks.empty()) fmt::print("  {} of {} check points: averaged, periodic and simulated agree on stability\n", agreed, checks.size());
     fmt::print("  case controller ({}): averaged {}, periodic {}\n", own.description,
                own_roots.spectral_abscissa() < 0 ? "stable" : "unstable", own_floquet.spectral_radius() < 1 ? "stable" : "unstable");
+    if (!sweep.empty()) {
+      fmt::print("  centre of mass moved below the wing hinges (open loop, growth per wingbeat):\n");
+      fmt::print("  {:>10} {:>22} {:>10} {:>10} {:>10}\n", "dz (c)", "CoM below axis (mm)", "averaged", "Floquet", "simulated");
+      for (const auto& p : sweep)
+        fmt::print("  {:>10.2f} {:>22.2f} {:>+10.4f} {:>+10.4f} {:>+10.4f}\n", p.dz / h.derivatives.table.reference.c,
+                   p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth, p.simulated_growth);
+    }
     fmt::print("wrote {}/control_map.json, control_map.csv{} in {:.2f} s\n", dir, svg ? ", control_map.svg" : "", seconds_since(t0));
   }
   return 0;

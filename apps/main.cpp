@@ -86,6 +86,9 @@ int main(int argc, char** argv) {
   cmap->add_option("case", fo.case_path, "case file (TOML) with [control] type = \"pitch\" and [control.pitch], [control.map]")
       ->required()->check(CLI::ExistingFile);
   cmap->add_option("-o,--output", fo.output_dir, "output directory (default: the case's [output] directory)");
+  cmap->add_flag("--com-sweep", fo.com_sweep, "also move the centre of mass from -c to +c below the wing hinges "
+                                             "(nine points, re-trimmed) and compare averaged, Floquet and simulated "
+                                             "open-loop pitch growth with the CoM's distance below the neutral axis");
   cmap->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
   CLI11_PARSE(app, argc, argv);
   try {

@@ -99,7 +99,16 @@ json derivatives_json(const DerivativeResult& d) {
     }
   const auto& ref = d.table.reference;
   const auto& m = d.table.mass;
-  return {{"reference", {{"U_m_s", ref.U}, {"c_m", ref.c}, {"S_t_m2", ref.S_t}, {"rho_kg_m3", ref.rho},
+  json control = json::object();
+  for (const auto& c : d.table.control) {
+    json col = {{"unit", c.unit}};
+    for (int i = 0; i < 6; ++i) col[std::string(1, rows[i])] = c.nd(i);
+    control[c.parameter] = col;
+  }
+  return {{"control_nondimensional", control},
+          {"control_note", "d[X Y Z L M N]+ per unit of each kinematic parameter (deg or Hz), moments about the trimmed "
+                           "reference point including the gravitational moment of the centre of mass it moves"},
+          {"reference", {{"U_m_s", ref.U}, {"c_m", ref.c}, {"S_t_m2", ref.S_t}, {"rho_kg_m3", ref.rho},
                          {"frequency_hz", ref.frequency}, {"g_m_s2", ref.g}}},
           {"mass", {{"m_kg", m.m}, {"Ixx_kg_m2", m.Ixx}, {"Iyy_kg_m2", m.Iyy}, {"Izz_kg_m2", m.Izz},
                     {"Ixz_kg_m2", m.Ixz}}},

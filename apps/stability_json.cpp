@@ -120,9 +120,18 @@ json to_json(const StabilityAnalysis& a) {
   for (const auto& s : a.state_order) units.push_back(state_unit(s));
   json modes = json::array();
   for (const auto& m : a.modes) modes.push_back(to_json(m, a.state_order));
+  json brows = json::array();
+  for (Eigen::Index i = 0; i < a.input_matrix_nd.rows() && a.input_matrix_nd.cols() > 0; ++i) {
+    json row = json::array();
+    for (Eigen::Index j = 0; j < a.input_matrix_nd.cols(); ++j) row.push_back(a.input_matrix_nd(i, j));
+    brows.push_back(row);
+  }
   return {{"state_order", a.state_order},
           {"state_units", units},
           {"system_matrix_nd", rows},
+          {"input_order", a.input_order},
+          {"input_matrix_nd", brows},
+          {"input_note", "d/dt+ x = A x + B delta: delta in each input's unit (deg or Hz), columns in input_order"},
           {"time_scale_s", a.reference.time_scale()},
           {"wingbeat_frequency_hz", a.reference.frequency},
           {"participation_measure", a.participation_measure},

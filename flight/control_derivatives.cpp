@@ -47,4 +47,23 @@ ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect
   return out;
 }
 
+std::vector<TrimParameterSpec> actuated_parameters(const Case& c) {
+  std::vector<TrimParameterSpec> out = c.trim.parameters;
+  auto add = [&](const TrimParameterSpec& s) {
+    for (const auto& o : out)
+      if (o.label() == s.label()) return;
+    out.push_back(s);
+  };
+  if (c.control.type == "pitch") {
+    TrimParameterSpec s;
+    s.name = c.control.actuator;
+    s.lower = -1e9;
+    s.upper = 1e9;
+    add(s);
+  }
+  if (c.control.type == "state-feedback")
+    for (const auto& a : c.control.actuators) add(a);
+  return out;
+}
+
 }  // namespace flapstab

@@ -25,4 +25,7 @@ ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect
                                             const ReferenceQuantities& ref, double gravity = standard_gravity,
                                             const AeroRunOptions& run = {});
 
+// The parameters a case can actuate: its [[trim.parameter]] entries and its [control] actuators, each once.
+std::vector<TrimParameterSpec> actuated_parameters(const Case& c);
+
 }  // namespace flapstab

@@ -4,19 +4,21 @@
 #include <chrono>
 #include <fmt/format.h>
 #include "core/errors.hpp"
+#include "core/rotation.hpp"
+#include "flight/free_flight.hpp"
 #include "stability/floquet.hpp"
 
 namespace flapstab {
 
 HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
-                       int phases) {
+                       int phases, const CyclicTrimOptions& cyclic) {
   const auto t0 = std::chrono::steady_clock::now();
   check_cyclic_trim_case(c, model);
   HoverModel h;
   h.averaged_trim = trim_hover(c, model);
   if (!h.averaged_trim.converged)
     throw SolveError(fmt::format("{}: the averaged trim did not converge ({})", c.path, h.averaged_trim.message));
-  h.cyclic = cyclic_trim(c, model, h.averaged_trim);
+  h.cyclic = cyclic_trim(c, model, h.averaged_trim, cyclic);
   if (!h.cyclic.converged)
     throw SolveError(fmt::format("{}: cyclic trim did not converge ({}); periodicity residual {:.2e}", c.path,
                                  h.cyclic.message, h.cyclic.residual));
@@ -56,6 +58,44 @@ BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string
   BodyStateVector d = BodyStateVector::Zero();
   for (int i = 0; i < 4; ++i) d(linear_state_index[idx[std::size_t(i)]]) = v(i);
   return d;
+}
+
+std::vector<ComSweepPoint> com_height_sweep(const Case& c, const AeroModel& model, const std::vector<double>& dz,
+                                            double wingbeats) {
+  std::vector<ComSweepPoint> out;
+  for (double d : dz) {
+    Case m = c;
+    // Hinges up by d relative to the body CoM (S axes, z down), i.e. the CoM d lower below the wings.
+    m.insect.wing.hinge -= rot_y(c.kinematics.body_angle).transpose() * Vec3(0, 0, d);
+    CyclicTrimOptions co;
+    co.tolerance = 1e-8;
+    const HoverModel h = hover_model(m, model, {}, 0, co);
+    const double T = h.cyclic.period;
+    ComSweepPoint p;
+    p.dz = d;
+    p.com_below_axis_m = neutral_axis(h.derivatives.table).com_below_axis_m;
+    const Eigen::VectorXcd ev = Eigen::EigenSolver<Eigen::MatrixXd>(h.longitudinal.A).eigenvalues();
+    Eigen::Index k = 0;
+    for (Eigen::Index i = 1; i < ev.size(); ++i)
+      if (ev(i).real() > ev(k).real()) k = i;
+    p.lti_growth = ev(k).real() * T;
+    p.lti_oscillatory = std::abs(ev(k).imag()) > 0;
+    std::complex<double> mu;
+    floquet_mode_perturbation(h, "longitudinal", 1e-3, &mu);
+    p.floquet_growth = std::log(std::abs(mu));
+    const FlightDynamics dyn(model, m.insect, h.cyclic.kinematics, {}, DofSet::longitudinal);
+    BodyStateVector x0 = h.cyclic.initial_state;
+    x0(10) += 0.5 * deg;
+    FlightOptions fo;
+    fo.wingbeats = wingbeats;
+    fo.samples_per_wingbeat = 40;
+    const ReferenceOrbit ref = reference_orbit(h.orbit, T);
+    const FlightResult r = simulate_flight(dyn, ControllerSpec{}, x0, ref, h.derivatives.table.reference, fo);
+    p.simulated_growth = r.completed ? wingbeat_growth(r, ref, h.derivatives.table.reference, T, {3, 5, 7, 10}).per_wingbeat
+                                     : std::nan("");
+    out.push_back(p);
+  }
+  return out;
 }
 
 }  // namespace flapstab

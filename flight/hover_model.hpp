@@ -24,11 +24,26 @@ struct HoverModel {
 
 // For a symmetric case with an instantaneous model. Throws InputError / SolveError as floquet analysis does.
 HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
-                       int phases = 0);
+                       int phases = 0, const CyclicTrimOptions& cyclic = {});
 
 // The most unstable Floquet mode of the [u w q theta] ("longitudinal") or [v p r phi] ("lateral") subsystem as a
 // BodyStateVector perturbation (real part of the eigenvector), scaled to non-dimensional max-norm `amplitude`.
 BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string& subsystem, double amplitude,
                                           std::complex<double>* multiplier = nullptr);
+
+// The seed's neutral-axis argument tested: the centre of mass moved by dz (m, +down in stability axes) relative to
+// the wing hinges, the hover re-trimmed, and the largest open-loop longitudinal growth per wingbeat from the averaged
+// model, the Floquet monodromy and nonlinear free flight (0.5 deg of pitch, `wingbeats`), beside where the neutral
+// axis then lies. The cyclic trims of the sweep converge to 1e-8 (scaled periodicity residual) instead of 1e-10:
+// some moved insects stall just above 1e-10 in the line search, and 1e-8 leaves the growth rates unchanged to the
+// printed digits.
+struct ComSweepPoint {
+  double dz = 0;                      // m
+  double com_below_axis_m = 0;        // distance of the CoM below the neutral axis
+  double lti_growth = 0, floquet_growth = 0, simulated_growth = 0;  // per wingbeat (> 0 unstable)
+  bool lti_oscillatory = false;
+};
+std::vector<ComSweepPoint> com_height_sweep(const Case& c, const AeroModel& model, const std::vector<double>& dz,
+                                            double wingbeats = 12);
 
 }  // namespace flapstab

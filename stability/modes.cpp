@@ -159,6 +159,8 @@ StabilityAnalysis analyse_modes(const StateSpace& sys, const ReferenceQuantities
   out.name = sys.name;
   out.state_order = sys.state_order;
   out.system_matrix_nd = sys.A;
+  out.input_matrix_nd = sys.B;
+  out.input_order = sys.input_order;
   out.reference = ref;
 
   Eigen::EigenSolver<Eigen::MatrixXd> es(sys.A, true);

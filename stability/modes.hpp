@@ -71,6 +71,8 @@ struct StabilityAnalysis {
   std::string name;                       // "longitudinal" | "lateral" | "6dof"
   std::vector<std::string> state_order;
   Eigen::MatrixXd system_matrix_nd;
+  Eigen::MatrixXd input_matrix_nd;        // B of the state space (one column per control input; may be empty)
+  std::vector<std::string> input_order;
   ReferenceQuantities reference;          // for the dimensional conversions
   std::string participation_measure;      // how `participation` was computed (see modes.cpp)
   std::vector<Mode> modes;                // most unstable first (Re lambda descending)
