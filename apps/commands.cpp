@@ -197,6 +197,16 @@ int run_analyze(const CommandOptions& o) {
       notices.push_back(std::string("revolving-wing comparison skipped: ") + e.what());
     }
   }
+  std::optional<ControlSummary> control;
+  if (floquet && c.control.type == "pitch") {
+    try {
+      control = pitch_control_summary(c, *model, floquet->cyclic, floquet->averaged, floquet->phase);
+    } catch (const SolveError& e) {
+      notices.push_back(std::string("pitch-feedback analysis skipped: ") + e.what());
+    }
+  } else if (c.control.type == "pitch") {
+    notices.push_back("pitch-feedback analysis skipped: it needs the time-periodic hover (see the Floquet note)");
+  }
   const double secs = seconds_since(t0);
   ReportInputs inputs;
   inputs.case_file = &c;
@@ -207,6 +217,7 @@ int run_analyze(const CommandOptions& o) {
   inputs.wall_time_s = secs;
   inputs.floquet = floquet ? &*floquet : nullptr;
   inputs.revolving = revolving ? &*revolving : nullptr;
+  inputs.control = control ? &*control : nullptr;
   inputs.notices = notices;
   const ReportFiles files = build_report(inputs);
 
@@ -218,6 +229,22 @@ int run_analyze(const CommandOptions& o) {
   if (!files.figure_notice.empty()) j["figure_notice"] = files.figure_notice;
   if (floquet) j["floquet"] = floquet_json(c, *floquet);
   if (revolving) j["revolving_comparison"] = revolving_json(*revolving);
+  j["verdict"] = report_verdict(inputs);
+  if (control) {
+    auto lat = [](double tau) -> nlohmann::json {
+      if (std::isnan(tau)) return nullptr;
+      if (std::isinf(tau)) return "beyond the scanned range";
+      return tau;
+    };
+    j["control"] = {{"description", control->description},
+                    {"averaged_spectral_abscissa_per_s", {{"open_loop", control->open_abscissa}, {"closed_loop", control->closed_abscissa}}},
+                    {"periodic_spectral_radius", {{"open_loop", control->open_radius}, {"closed_loop", control->closed_radius}}},
+                    {"critical_latency_s", lat(control->critical.latency)},
+                    {"best_pitch_gain", control->best.gain},
+                    {"best_gain_critical_latency_s", lat(control->best.latency)},
+                    {"scanned_latency_max_s", control->latency_max},
+                    {"neutral_axis_z_m", control->neutral.z_at_com}};
+  }
   j["notices"] = notices;
   std::string csv =
       "# loads over the trimmed wingbeat; hover stability axes (x forward, y right, z down), about the wingbeat-mean "

@@ -1,7 +1,9 @@
 // The analysis report: Markdown with figures, and the same as one self-contained HTML page.
 #include "apps/report.hpp"
 
+#include <cmath>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sstream>
 
 #include "apps/floquet_command.hpp"
@@ -169,7 +171,48 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
   }
 }
 
+// One statement: is the hover stable, which modes grow and how fast, by which model, and what the case's
+// feedback does.
+std::string verdict(const ReportInputs& in) {
+  std::vector<std::string> growing;
+  double fastest = INFINITY;
+  for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
+    if (!*a) continue;
+    for (const auto& m : (*a)->modes)
+      if (m.eigenvalue_nd.real() > 0) {
+        growing.push_back(fmt::format("{} {}", (*a)->name, m.label));
+        if (m.time_to_double_wingbeats) fastest = std::min(fastest, *m.time_to_double_wingbeats);
+      }
+  }
+  std::string v;
+  if (growing.empty()) v = "the hover is stable in the averaged model";
+  else
+    v = fmt::format("the hover is unstable in the averaged model ({}; the fastest doubles in {:.3g} wingbeats)",
+                    fmt::join(growing, ", "), fastest);
+  if (in.floquet) {
+    double lon = 0, lat = 0;
+    for (const auto& m : in.floquet->longitudinal.phase_resolved.multipliers) lon = std::max(lon, std::abs(m));
+    for (const auto& m : in.floquet->lateral.phase_resolved.multipliers) lat = std::max(lat, std::abs(m));
+    v += fmt::format("; the time-periodic (Floquet) model {} it (largest |mu| {:.4f} longitudinal, {:.4f} lateral)",
+                     lon > 1 || lat > 1 ? "confirms" : "does not confirm", lon, lat);
+  }
+  if (in.control) {
+    const ControlSummary& k = *in.control;
+    const bool a = k.closed_abscissa < 0, p = k.closed_radius < 1;
+    v += fmt::format("; the case's pitch feedback ({} deg/deg, {} s, {:.0f} ms) {} the longitudinal hover ({}{})",
+                     in.case_file->control.pitch_gain, in.case_file->control.rate_gain_s,
+                     in.case_file->control.pitch_latency_s * 1e3, a && p ? "stabilises" : (a || p ? "stabilises, in one model only," : "does not stabilise"),
+                     a ? "averaged stable" : "averaged unstable", p ? ", periodic stable" : ", periodic unstable");
+    if (std::isfinite(k.critical.latency))
+      v += fmt::format(" up to a latency of {:.1f} ms ({:.2f} wingbeats)", k.critical.latency * 1e3, k.critical.latency / k.period);
+    v += "; it does not act on the lateral modes";
+  }
+  return v + ".";
+}
+
 }  // namespace
+
+std::string report_verdict(const ReportInputs& in) { return verdict(in); }
 
 ReportFiles build_report(const ReportInputs& in) {
   ReportFiles out;
@@ -188,6 +231,7 @@ ReportFiles build_report(const ReportInputs& in) {
   md << "Sources of the insect's numbers:\n\n";
   for (const auto& s : c.sources) md << "- " << s << "\n";
   md << "\n## Summary\n\n";
+  md << "**Verdict:** " << verdict(in) << "\n\n";
   auto count_unstable = [](const std::optional<StabilityAnalysis>& a) {
     int n = 0;
     if (a)
@@ -273,6 +317,36 @@ ReportFiles build_report(const ReportInputs& in) {
       md << "### Longitudinal\n\n" << mode_comparison_table(*in.stability->longitudinal, *r.stability.longitudinal) << "\n";
     if (in.stability->lateral && r.stability.lateral)
       md << "### Lateral\n\n" << mode_comparison_table(*in.stability->lateral, *r.stability.lateral) << "\n";
+  }
+  if (in.control) {
+    const ControlSummary& k = *in.control;
+    const double T = k.period;
+    auto lat = [&](double tau) {
+      if (std::isinf(tau)) return fmt::format("beyond {:.1f} ms (the range scanned)", k.latency_max * 1e3);
+      if (std::isnan(tau)) return std::string("none (not stable without delay)");
+      return fmt::format("{:.1f} ms ({:.2f} wingbeats)", tau * 1e3, tau / T);
+    };
+    md << "## Pitch feedback\n\n";
+    md << fmt::format(
+        "Controller ([control] in the case): {}. It acts on the deviations of pitch angle and pitch rate from the "
+        "periodic hover orbit. Longitudinal loop, delay-exact (Chebyshev collocation of the delay system refined by "
+        "Newton; periodic loop by semi-discretisation of its monodromy):\n\n",
+        k.description);
+    md << "| model | open loop | with the controller |\n|---|---|---|\n";
+    md << fmt::format("| averaged: spectral abscissa per wingbeat | {:+.4f} | {:+.4f} |\n", k.open_abscissa * T,
+                      k.closed_abscissa * T);
+    md << fmt::format("| periodic: log of the largest multiplier modulus per wingbeat | {:+.4f} | {:+.4f} |\n\n", std::log(k.open_radius),
+                      std::log(k.closed_radius));
+    md << fmt::format("Critical latency at the case's gains (both signals delayed alike): {}. Best pitch gain in "
+                      "[{:g}, {:g}] with the case's rate gain: {:.4g} deg/deg, critical latency {}.\n\n",
+                      lat(k.critical.latency), c.control.map_gain_min, c.control.map_gain_max, k.best.gain,
+                      lat(k.best.latency));
+    const auto& col = k.control.columns.front();
+    md << fmt::format("Control derivatives of {} (per {}, non-dimensional): X {:.4g}, Z {:.4g}, M {:.4g}. Neutral "
+                      "axis {:.2f} mm ({:.2f} c) above the centre of mass. The map over (gain, latency) and its "
+                      "simulated check points: `flapstab control-map`.\n\n",
+                      col.parameter, col.unit, col.nd(0), col.nd(2), col.nd(4), -k.neutral.z_at_com * 1e3,
+                      -k.neutral.z_at_com / d.reference.c);
   }
   for (const auto& n : in.notices) md << "**Note:** " << n << "\n\n";
   if (!out.figure_notice.empty()) md << "**Figures omitted:** " << out.figure_notice << "\n\n";

@@ -1,5 +1,6 @@
 // The analysis report: report.md (with SVG figures beside it) and a self-contained report.html.
 #pragma once
+#include "flight/hover_model.hpp"
 #include <map>
 #include <string>
 #include "cfd/derivatives.hpp"
@@ -23,6 +24,7 @@ struct ReportInputs {
   double wall_time_s = 0;
   const FloquetStudy* floquet = nullptr;          // time-periodic analysis (optional)
   const RevolvingComparison* revolving = nullptr; // equivalent revolving-wing flyer (optional)
+  const ControlSummary* control = nullptr;        // the case's pitch feedback (optional)
   std::vector<std::string> notices;               // analyses skipped and why
 };
 
@@ -33,6 +35,8 @@ struct ReportFiles {
 };
 
 ReportFiles build_report(const ReportInputs& in);
+// The report's opening statement: stable or not, which modes, how fast, by which model, what the feedback does.
+std::string report_verdict(const ReportInputs& in);
 
 // Minimal Markdown -> HTML (headings, paragraphs, lists, pipe tables, `code`, **bold**, images
 // replaced by the inline SVG of the same name) for the self-contained report.

@@ -60,6 +60,49 @@ BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string
   return d;
 }
 
+ControlSummary pitch_control_summary(const Case& c, const AeroModel& model, const CyclicTrimResult& cyclic,
+                                     const DerivativeResult& derivatives, const PhaseDerivatives& phase) {
+  if (c.control.type != "pitch") throw InputError(c.path, "control.type", "no pitch controller", "type = \"pitch\"");
+  ControlSummary s;
+  const Kinematics& kin = cyclic.kinematics;
+  s.period = kin.period();
+  TrimParameterSpec a;
+  a.name = c.control.actuator;
+  a.lower = -1e9;
+  a.upper = 1e9;
+  const double trim = TrimParameterization(kin, {a}, c.path).initial()[0];
+  DerivativeTable table = derivatives.table;
+  s.control = control_derivatives(model, c.insect, kin, {a}, table.reference);
+  table.control = s.control.columns;
+  s.neutral = neutral_axis(table);
+  const LinearPlant plant = averaged_plant(longitudinal_system(table), table.reference);
+  PitchControllerSettings base;
+  base.actuator = c.control.actuator;
+  base.pitch_gain = c.control.pitch_gain;
+  base.rate_gain_s = c.control.rate_gain_s;
+  base.pitch_latency_s = c.control.pitch_latency_s;
+  base.rate_latency_s = c.control.rate_latency_s;
+  base.filter_time_s = c.control.filter_time_s;
+  base.limit_deg = c.control.limit_deg;
+  const ControllerSpec own = pitch_controller(base, trim);
+  s.description = own.description;
+  const Eigen::VectorXcd ev = Eigen::EigenSolver<Eigen::MatrixXd>(plant.A).eigenvalues();
+  s.open_abscissa = -INFINITY;
+  for (Eigen::Index i = 0; i < ev.size(); ++i) s.open_abscissa = std::max(s.open_abscissa, ev(i).real());
+  s.closed_abscissa = rightmost_roots(closed_loop(plant, own, c.path, "control.pitch")).spectral_abscissa();
+  const FlightDynamics dyn(model, c.insect, kin, own.actuators, DofSet::longitudinal);
+  const PeriodicPlant pp = periodic_plant(dyn, phase, {"u", "w", "q", "theta"});
+  s.closed_radius = delayed_floquet(closed_loop(pp, own, c.path, "control.pitch")).spectral_radius();
+  s.open_radius = delayed_floquet(closed_loop(pp, ControllerSpec{}, c.path, "control.pitch")).spectral_radius();
+  s.latency_max = c.control.map_latency_max_s > 0 ? c.control.map_latency_max_s : 3 * s.period;
+  const DelaySystemBuilder build = [&](double g, double tau) {
+    return closed_loop(plant, controller_at(base, MapGain::pitch, g, tau, trim), c.path, "control.pitch");
+  };
+  s.critical = critical_latency(build, base.pitch_gain, s.latency_max);
+  s.best = best_gain(build, c.control.map_gain_min, c.control.map_gain_max, s.latency_max);
+  return s;
+}
+
 std::vector<ComSweepPoint> com_height_sweep(const Case& c, const AeroModel& model, const std::vector<double>& dz,
                                             double wingbeats) {
   std::vector<ComSweepPoint> out;

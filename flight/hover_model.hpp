@@ -31,6 +31,22 @@ HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<
 BodyStateVector floquet_mode_perturbation(const HoverModel& h, const std::string& subsystem, double amplitude,
                                           std::complex<double>* multiplier = nullptr);
 
+// The case's pitch controller ([control] type = "pitch") about an already computed hover: closed-loop stability of
+// the averaged and periodic longitudinal loops, its critical latency (both signals delayed alike, the case's gains)
+// and the best pitch gain with the case's rate gain. `derivatives` are about the cyclic trim's kinematics.
+struct ControlSummary {
+  std::string description;
+  double period = 0;
+  double open_abscissa = 0, closed_abscissa = 0;  // averaged longitudinal, 1/s
+  double open_radius = 0, closed_radius = 0;      // periodic longitudinal spectral radius
+  CriticalLatency critical, best;                 // latency in s
+  double latency_max = 0;                         // the scanned range (s)
+  ControlDerivativeResult control;
+  NeutralAxis neutral;
+};
+ControlSummary pitch_control_summary(const Case& c, const AeroModel& model, const CyclicTrimResult& cyclic,
+                                     const DerivativeResult& derivatives, const PhaseDerivatives& phase);
+
 // The seed's neutral-axis argument tested: the centre of mass moved by dz (m, +down in stability axes) relative to
 // the wing hinges, the hover re-trimmed, and the largest open-loop longitudinal growth per wingbeat from the averaged
 // model, the Floquet monodromy and nonlinear free flight (0.5 deg of pitch, `wingbeats`), beside where the neutral
