@@ -179,6 +179,11 @@ FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ct
       sys.sample_and_hold(t, y);
       k1 = sys.rhs(t, y);  // the command jumps: restart the FSAL stage
     }
+    // An output time on this wingbeat's start is recorded after the update, with the command that holds from it.
+    while (next_sample <= total_samples && next_sample * dt_sample <= t * (1 + 1e-13)) {
+      record(t, y);
+      ++next_sample;
+    }
     while (t < t_end * (1 - 1e-14) && res.completed) {
       bool last = false;
       if (t + h >= t_end) {
@@ -216,7 +221,9 @@ FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ct
         continue;
       }
       // Accepted: output samples inside (t, t_new] by Hermite interpolation of the step.
-      while (next_sample <= total_samples && next_sample * dt_sample <= t_new * (1 + 1e-13)) {
+      const bool final_step = last && beat == total_beats - 1;
+      while (next_sample <= total_samples && (next_sample * dt_sample < t_end * (1 - 1e-13) || final_step) &&
+             next_sample * dt_sample <= t_new * (1 + 1e-13)) {
         const double ts = next_sample * dt_sample, s = std::clamp((ts - t) / (t_new - t), 0.0, 1.0);
         const double h00 = (1 + 2 * s) * (1 - s) * (1 - s), h10 = s * (1 - s) * (1 - s);
         const double h01 = s * s * (3 - 2 * s), h11 = s * s * (s - 1);

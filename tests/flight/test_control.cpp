@@ -1,0 +1,173 @@
+// Control derivatives, closed-loop assembly, and the delayed pitch loop of the hawkmoth: averaged, periodic and
+// nonlinear simulated answers side by side.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cfd/aero_factory.hpp"
+#include "core/rotation.hpp"
+#include "flight/free_flight.hpp"
+#include "flight/hover_model.hpp"
+
+namespace flapstab {
+namespace {
+
+struct Loop {
+  Case c;
+  std::unique_ptr<AeroModel> model;
+  HoverModel h;
+  double trim = 0;  // trimmed stroke-plane angle (deg)
+};
+
+const Loop& hawkmoth() {
+  static const Loop l = [] {
+    Loop x;
+    x.c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml");
+    x.model = make_aero_model(x.c);
+    std::vector<TrimParameterSpec> act(2);
+    act[0].name = "stroke_plane_deg";
+    act[1].name = "frequency_hz";
+    for (auto& a : act) a.lower = -1e9, a.upper = 1e9;
+    x.h = hover_model(x.c, *x.model, act);
+    x.trim = x.h.cyclic.kinematics.stroke_plane / deg;
+    return x;
+  }();
+  return l;
+}
+
+// Quasi-steady loads at rest scale with the square of the wingbeat frequency (every term: translational and
+// rotational circulation, added mass), so dF/dn = 2 F / n exactly; central differences of a quadratic are exact,
+// leaving rounding (1e-9 relative). The frequency does not move the mean centre of mass: no gravity part.
+TEST(ControlDerivatives, FrequencyDerivativeIsTwiceTheLoadOverFrequency) {
+  const Loop& l = hawkmoth();
+  const Kinematics& k = l.h.cyclic.kinematics;
+  const Wrench w = l.model->run(l.c.insect, k, BodyMotion{}, {}).mean();
+  const Eigen::VectorXd col = l.h.control.si.col(1);
+  const double n = k.frequency_hz;
+  EXPECT_NEAR(col(2), 2 * w.force.z() / n, 1e-9 * std::abs(w.force.z() / n));
+  EXPECT_NEAR(col(0), 2 * w.force.x() / n, 1e-9 * std::abs(w.force.z() / n));
+  EXPECT_NEAR(col(4), 2 * w.moment.y() / n, 1e-9 * std::abs(w.force.z() / n) * l.c.insect.wing.length);
+  EXPECT_EQ(l.h.control.gravity_si.col(1).norm(), 0.0);
+  // At the averaged trim the mean lift carries the weight: dZ/dn = -2 W / n. (The cyclic trim's kinematics, used
+  // above, balance the weight along the oscillating orbit, not at rest.)
+  TrimParameterSpec f;
+  f.name = "frequency_hz";
+  f.lower = -1e9;
+  f.upper = 1e9;
+  const Kinematics& ka = l.h.averaged_trim.kinematics;
+  const ControlDerivativeResult at_rest =
+      control_derivatives(*l.model, l.c.insect, ka, {f}, l.h.derivatives.table.reference);
+  EXPECT_NEAR(at_rest.si(2, 0), -2 * l.c.insect.weight() / ka.frequency_hz, 1e-8 * l.c.insect.weight() / n);
+}
+
+// The loop's assembly: with zero latency the roots are the eigenvalues of A - b k^T; a sensor filter adds the
+// state s' = (theta - s) / T_f with the command -k s (the augmented matrix written out by hand). To 1e-9.
+TEST(ClosedLoop, ZeroLatencyAndFilterMatchTheStateFeedbackMatrix) {
+  const LinearPlant& p = hawkmoth().h.longitudinal;
+  PitchControllerSettings s;
+  s.pitch_gain = 0.7;
+  s.rate_gain_s = 0.03;
+  const ControllerSpec c = pitch_controller(s, hawkmoth().trim);
+  Eigen::Matrix4d K = Eigen::Matrix4d::Zero();
+  K.col(3) = -c.terms[0].gain * p.B.col(0);
+  K.col(2) = -c.terms[1].gain * p.B.col(0);
+  const Eigen::VectorXcd expected = Eigen::EigenSolver<Eigen::MatrixXd>(p.A + K).eigenvalues();
+  const DelayRoots r = rightmost_roots(closed_loop(p, c));
+  double abscissa = -1e300;
+  for (Eigen::Index i = 0; i < 4; ++i) abscissa = std::max(abscissa, expected(i).real());
+  EXPECT_NEAR(r.spectral_abscissa(), abscissa, 1e-9 * std::abs(abscissa) + 1e-9);
+  s.filter_time_s = 0.01;
+  const ControllerSpec cf = pitch_controller(s, hawkmoth().trim);
+  Eigen::MatrixXd Af = Eigen::MatrixXd::Zero(6, 6);
+  Af.topLeftCorner(4, 4) = p.A;
+  Af(4, 4) = Af(5, 5) = -100;
+  Af(4, 3) = Af(5, 2) = 100;  // filter states sense theta and q
+  Af.block(0, 4, 4, 1) = -cf.terms[0].gain * p.B.col(0);
+  Af.block(0, 5, 4, 1) = -cf.terms[1].gain * p.B.col(0);
+  const DelaySystem d = closed_loop(p, cf);
+  ASSERT_EQ(d.A.rows(), 6);
+  EXPECT_LT((d.A - Af).norm(), 1e-9 * Af.norm());
+}
+
+// The delayed pitch loop (0.5 deg/deg, 0.05 s) at latencies well inside (20 ms) and well beyond (90 ms) the averaged
+// model's critical latency (55 ms): averaged, periodic and nonlinear simulated answers agree on the sign of the
+// growth. The simulated growth is fitted to the per-wingbeat deviation over wingbeats 10-19; both points are chosen
+// at least 0.05 per wingbeat from neutral in the linear models, so only the sign is asserted.
+TEST(ClosedLoop, DelayedPitchFeedbackAveragedPeriodicAndSimulatedAgree) {
+  const Loop& l = hawkmoth();
+  const double T = l.h.cyclic.period;
+  PitchControllerSettings s;
+  s.pitch_gain = 0.5;
+  s.rate_gain_s = 0.05;
+  const FlightDynamics dyn(*l.model, l.c.insect, l.h.cyclic.kinematics, pitch_controller(s, l.trim).actuators,
+                           DofSet::longitudinal);
+  const PeriodicPlant pp = periodic_plant(dyn, l.h.phase, {"u", "w", "q", "theta"});
+  const ReferenceOrbit ref = reference_orbit(l.h.orbit, T);
+  for (double tau : {0.020, 0.090}) {
+    s.pitch_latency_s = s.rate_latency_s = tau;
+    const ControllerSpec c = pitch_controller(s, l.trim);
+    const double lti = rightmost_roots(closed_loop(l.h.longitudinal, c)).spectral_abscissa() * T;
+    const DelayFloquet fl = delayed_floquet(closed_loop(pp, c));
+    EXPECT_TRUE(fl.converged);
+    const double periodic = std::log(fl.spectral_radius());
+    BodyStateVector x0 = l.h.cyclic.initial_state;
+    x0(10) += 0.5 * deg;
+    FlightOptions o;
+    o.wingbeats = 20;
+    const FlightResult r = simulate_flight(dyn, c, x0, ref, l.h.derivatives.table.reference, o);
+    ASSERT_TRUE(r.completed) << r.stop_reason;
+    const double sim = wingbeat_growth(r, ref, l.h.derivatives.table.reference, T, {3, 5, 7, 10}, 10).per_wingbeat;
+    const bool stable = tau < 0.05;
+    EXPECT_EQ(lti < -0.05, stable) << "tau " << tau << ": averaged " << lti;
+    EXPECT_EQ(periodic < -0.05, stable) << "tau " << tau << ": periodic " << periodic;
+    EXPECT_EQ(sim < 0, stable) << "tau " << tau << ": simulated " << sim;
+    if (!stable) {
+      EXPECT_GT(lti, 0.05);
+    }
+  }
+}
+
+// Sample-and-hold: the command changes only at wingbeat boundaries.
+TEST(ClosedLoop, WingbeatUpdateHoldsTheCommandForEachWingbeat) {
+  const Loop& l = hawkmoth();
+  PitchControllerSettings s;
+  s.pitch_gain = 0.5;
+  s.rate_gain_s = 0.05;
+  s.pitch_latency_s = s.rate_latency_s = 0.02;
+  s.update = ControlUpdate::wingbeat;
+  const ControllerSpec c = pitch_controller(s, l.trim);
+  const FlightDynamics dyn(*l.model, l.c.insect, l.h.cyclic.kinematics, c.actuators, DofSet::longitudinal);
+  BodyStateVector x0 = l.h.cyclic.initial_state;
+  x0(10) += 0.5 * deg;
+  FlightOptions o;
+  o.wingbeats = 3;
+  o.samples_per_wingbeat = 10;
+  const FlightResult r = simulate_flight(dyn, c, x0, reference_orbit(l.h.orbit, l.h.cyclic.period),
+                                         l.h.derivatives.table.reference, o);
+  ASSERT_EQ(r.samples.size(), 31u);
+  double changed = 0;
+  for (int k = 0; k < 3; ++k)
+    for (int i = 1; i < 10; ++i)
+      EXPECT_EQ(r.samples[std::size_t(10 * k + i)].command[0], r.samples[std::size_t(10 * k)].command[0]);
+  for (int k = 1; k < 3; ++k) changed += std::abs(r.samples[std::size_t(10 * k)].command[0] - r.samples[0].command[0]);
+  EXPECT_GT(changed, 1e-3);  // the held value does follow the (delayed) pitch
+}
+
+// The neutral axis belongs to the wings: moving the centre of mass 0.25 c down relative to the hinges (re-trimmed)
+// moves the CoM 0.25 c further below the axis, to 2 % of the chord.
+TEST(NeutralAxis, MovesWithTheWingsNotWithTheCentreOfMass) {
+  const Loop& l = hawkmoth();
+  const double cbar = l.h.derivatives.table.reference.c;
+  const NeutralAxis a0 = neutral_axis(l.h.derivatives.table);
+  EXPECT_LT(a0.z_at_com, 0);  // above the CoM for the hovering hawkmoth (X_u < 0, M_u > 0)
+  Case m = l.c;
+  m.insect.wing.hinge -= rot_y(l.c.kinematics.body_angle).transpose() * Vec3(0, 0, 0.25 * cbar);
+  CyclicTrimOptions co;
+  co.tolerance = 1e-8;
+  const HoverModel h = hover_model(m, *l.model, {}, 0, co);
+  const NeutralAxis a1 = neutral_axis(h.derivatives.table);
+  EXPECT_NEAR(a1.com_below_axis_m - a0.com_below_axis_m, 0.25 * cbar, 0.02 * cbar);
+}
+
+}  // namespace
+}  // namespace flapstab
