@@ -1,0 +1,131 @@
+// flapstab fly and flapstab control-map end to end: the files, their headers and keys, and bad input (exit status
+// 2, the file and key named, nothing written).
+#include <gtest/gtest.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include "common/case_text.hpp"
+
+namespace flapstab {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliResult {
+  int status;
+  std::string out, err;
+};
+
+CliResult flapstab(const std::string& args) {
+  const std::string o = testing::write_temp("fly_stdout.txt", ""), e = testing::write_temp("fly_stderr.txt", "");
+  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " " + args + " > " + o + " 2> " + e).c_str());
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(o), slurp(e)};
+}
+
+std::string hawkmoth_text() {
+  std::ifstream in(std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("flapstab_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d.string();
+}
+
+TEST(FlyCli, HawkmothClosedLoopWritesTrajectoryAndRunJson) {
+  const std::string dir = fresh_dir("fly");
+  const CliResult r = flapstab("fly " + std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml -o " + dir +
+                         " --wingbeats 6 -q");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream csv(dir + "/trajectory.csv");
+  std::string header, first;
+  std::getline(csv, header);
+  std::getline(csv, first);
+  EXPECT_EQ(header.rfind("t_s,wingbeat,x_m,y_m,z_m,u_m_s", 0), 0u) << header;  // one header row, units in names
+  EXPECT_NE(header.find(",dtheta_rad,"), std::string::npos);
+  EXPECT_NE(header.find(",command_stroke_plane_deg"), std::string::npos);
+  int rows = 1;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  EXPECT_EQ(rows, 6 * 40 + 1);
+  std::ifstream js(dir + "/run.json");
+  const auto j = nlohmann::json::parse(js);
+  EXPECT_EQ(j.at("command"), "fly");
+  EXPECT_EQ(j.at("flight").at("dof"), "longitudinal");
+  EXPECT_TRUE(j.at("result").at("completed").get<bool>());
+  EXPECT_EQ(j.at("controller").at("terms").size(), 2u);
+  EXPECT_EQ(j.at("result").at("deviation_per_wingbeat_nd").size(), 6u);
+}
+
+// Bad input is refused before any work: exit status 2, the key named, no output directory.
+void expect_refused(const std::string& text, const std::string& command, const std::string& key) {
+  const std::string path = testing::write_temp("bad_flight.toml", text);
+  const std::string dir = fresh_dir("bad");
+  const CliResult r = flapstab(command + " " + path + " -o " + dir + " -q");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'" + key + "'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir)) << command << " wrote " << dir;
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto p = text.find(from);
+  if (p == std::string::npos) throw std::runtime_error("test: '" + from + "' not in the case text");
+  return text.replace(p, from.size(), to);
+}
+
+TEST(FlyCli, BadInputNamesFileAndKey) {
+  const std::string h = hawkmoth_text();
+  expect_refused(replaced(h, "pitch_latency_s = 0.041", "pitch_latency_s = -0.01"), "fly", "control.pitch.pitch_latency_s");
+  expect_refused(replaced(h, "pitch_gain = 0.5 ", "pitch_gain = nan "), "fly", "control.pitch.pitch_gain");
+  expect_refused(replaced(h, "dof = \"longitudinal\"", "dof = \"5dof\""), "fly", "flight.dof");
+  expect_refused(replaced(h, "theta_deg = 0.5", "v_m_s = 0.1"), "fly", "flight.perturbation");
+  expect_refused(replaced(h, "theta_deg = 0.5", "alpha_deg = 0.5"), "fly", "flight.perturbation.alpha_deg");
+  expect_refused(replaced(h, "actuator = \"stroke_plane_deg\"", "actuator = \"wing_twist_deg\""), "fly",
+                 "control.pitch.actuator");
+  expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"\n[[control.feedback]]\nstate = \"alpha\"\n"
+                                                 "actuator = \"stroke_plane_deg\"\ngain = 1.0"),
+                 "fly", "control.feedback[0].state");
+  expect_refused(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "fly", "aero.model");
+  expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
+  expect_refused(replaced(h, "gain_max = 2.0", "gain_max = -1.0"), "control-map", "control.map.gain_max");
+}
+
+// A small map (8 x 8, one check point each side): the JSON's keys, the boundary and the agreement of the
+// averaged, periodic and simulated models at the check points.
+TEST(ControlMapCli, SmallHawkmothMap) {
+  std::string h = hawkmoth_text();
+  h = replaced(h, "gains = 50", "gains = 8\ncheck_points = 1\ncheck_wingbeats = 12");
+  h = replaced(h, "latencies = 50", "latencies = 8");
+  const std::string path = testing::write_temp("map_case.toml", h);
+  const std::string dir = fresh_dir("map");
+  const CliResult r = flapstab("control-map " + path + " -o " + dir + " -q");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream js(dir + "/control_map.json");
+  const auto j = nlohmann::json::parse(js);
+  EXPECT_EQ(j.at("map").at("gains").size(), 8u);
+  EXPECT_EQ(j.at("map").at("spectral_abscissa_per_s").size(), 8u);
+  EXPECT_EQ(j.at("boundary").size(), 8u);
+  EXPECT_GT(j.at("open_loop").at("lti_growth_per_wingbeat").get<double>(), 0);  // the hover is unstable alone
+  ASSERT_EQ(j.at("check_points").size(), 2u);
+  for (const auto& p : j.at("check_points")) EXPECT_TRUE(p.at("all_three_agree").get<bool>()) << p.dump();
+  const double best = j.at("best_gain").at("critical_latency_averaged").at("wingbeats").get<double>();
+  EXPECT_GT(best, 0.5);
+  std::ifstream csv(dir + "/control_map.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "gain,latency_s,latency_wingbeats,spectral_abscissa_per_s,growth_per_wingbeat,stable");
+}
+
+}  // namespace
+}  // namespace flapstab
