@@ -53,6 +53,14 @@ std::optional<int> FlightDynamics::actuator_index(const std::string& name) const
   return std::nullopt;
 }
 
+BodyStateVector FlightDynamics::held(const BodyStateVector& x) const {
+  BodyStateVector y = x;
+  const std::array<bool, 6> free = free_accelerations(dofs_);
+  for (int i = 0; i < 6; ++i)
+    if (!free[std::size_t(i)]) y(3 + i) = 0;
+  return y;
+}
+
 Kinematics FlightDynamics::kinematics(const std::vector<double>& command) const {
   std::vector<double> v = par_.initial();
   for (std::size_t i = 0; i < command.size() && i < v.size(); ++i) v[i] += command[i];

@@ -19,8 +19,8 @@
 
 namespace flapstab {
 
-// Which body degrees of freedom move. The others keep their initial velocity and rate components (zero from
-// hover), so their positions and angles stay put.
+// Which body degrees of freedom move. The velocity and rate components of the others are held at zero (the
+// simulation zeroes them in the initial state), so their positions and angles stay at their initial values.
 enum class DofSet {
   six_dof,       // all of u v w p q r
   longitudinal,  // u, w, q (x, z, theta)
@@ -53,6 +53,8 @@ class FlightDynamics {
   // dx/dt with the wings at kinematic time t_kin (phase t_kin * frequency) and the actuators offset by
   // `command` from their trimmed values (parameter units: deg or Hz; empty = no offset).
   FlightDerivative derivative(double t_kin, const BodyStateVector& x, const std::vector<double>& command) const;
+  // x with the velocity and rate components that the DoF set holds set to zero.
+  BodyStateVector held(const BodyStateVector& x) const;
   // The kinematics with the actuators offset by command.
   Kinematics kinematics(const std::vector<double>& command) const;
   const Kinematics& trimmed() const { return trimmed_; }

@@ -151,7 +151,7 @@ FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ct
   const double h_max = tau_min > 0 ? std::min(T / 8, tau_min) : T / 8;
 
   FlightResult res;
-  Eigen::VectorXd y = sys.initial(x0);
+  Eigen::VectorXd y = sys.initial(dyn.held(x0));
   double t = 0, h = T / 200;
   FlightDerivative d0;
   std::vector<double> cmd0;

@@ -51,7 +51,7 @@ struct ReferenceOrbit {
 // removed (x, y, z of the orbit are taken periodic).
 ReferenceOrbit reference_orbit(const std::vector<BodyStateVector>& samples, double period);
 
-// Integrates from x0 at t = 0 with the controller (may be empty). Throws SolveError for a non-finite state.
+// Integrates from x0 at t = 0 (its components that the DoF set holds are zeroed) with the controller (may be empty). Throws SolveError for a non-finite state.
 FlightResult simulate_flight(const FlightDynamics& dynamics, const ControllerSpec& controller, const BodyStateVector& x0,
                              const ReferenceOrbit& reference, const ReferenceQuantities& ref,
                              const FlightOptions& options);
