@@ -356,6 +356,34 @@ int run_control_map(const FlightCommandOptions& o) {
   std::vector<CriticalLatency> boundary;
   for (double g : gains) boundary.push_back(critical_latency(build, g, latency_max));
   const CriticalLatency best = best_gain(build, c.control.map_gain_min, c.control.map_gain_max, latency_max);
+  // Stable latency windows per gain: runs of negative abscissa on the grid, their ends refined by bisection on the
+  // spectral abscissa (a loop unstable without delay can be stabilised by a delay within a window).
+  struct Window {
+    double from = 0, to = 0;
+  };
+  std::vector<std::vector<Window>> windows(gains.size());
+  double widest_latency = -1, widest_gain = std::nan("");
+  auto refine = [&](double g, double a, double b) {  // abscissa changes sign between a and b
+    const bool a_stable = rightmost_roots(build(g, a)).spectral_abscissa() < 0;
+    for (int it = 0; it < 30 && b - a > 1e-6 * latency_max; ++it) {
+      const double m = 0.5 * (a + b);
+      ((rightmost_roots(build(g, m)).spectral_abscissa() < 0) == a_stable ? a : b) = m;
+    }
+    return 0.5 * (a + b);
+  };
+  for (std::size_t i = 0; i < gains.size(); ++i) {
+    for (std::size_t k = 0; k < latencies.size(); ++k) {
+      if (!(map.abscissa(Eigen::Index(i), Eigen::Index(k)) < 0)) continue;
+      if (k > 0 && map.abscissa(Eigen::Index(i), Eigen::Index(k - 1)) < 0) continue;  // not the start of a run
+      std::size_t e = k;
+      while (e + 1 < latencies.size() && map.abscissa(Eigen::Index(i), Eigen::Index(e + 1)) < 0) ++e;
+      Window w;
+      w.from = k == 0 ? 0.0 : refine(gains[i], latencies[k - 1], latencies[k]);
+      w.to = e + 1 == latencies.size() ? INFINITY : refine(gains[i], latencies[e], latencies[e + 1]);
+      windows[i].push_back(w);
+      if (w.to > widest_latency) widest_latency = w.to, widest_gain = gains[i];
+    }
+  }
   const double boundary_s = seconds_since(tm) - map_s;
   // The time-periodic loop at the best gain: its own critical latency (bisection on the spectral radius).
   const FlightDynamics dyn(*model, c.insect, h.cyclic.kinematics, pitch_controller(base, trim).actuators,
@@ -429,10 +457,21 @@ int run_control_map(const FlightCommandOptions& o) {
     j["map"]["spectral_abscissa_per_s"].push_back(row);
   }
   json bj = json::array();
-  for (const auto& b : boundary)
+  for (std::size_t i = 0; i < boundary.size(); ++i) {
+    const auto& b = boundary[i];
+    json wj = json::array();
+    for (const auto& w : windows[i]) wj.push_back({{"from", latency_json(w.from, T)}, {"to", latency_json(w.to, T)}});
     bj.push_back({{"gain", b.gain}, {"stable_without_delay", b.stable_without_delay}, {"critical_latency", latency_json(b.latency, T)},
-                  {"crossing_frequency_rad_s", std::isfinite(b.crossing_frequency) ? json(b.crossing_frequency) : json(nullptr)}});
+                  {"crossing_frequency_rad_s", std::isfinite(b.crossing_frequency) ? json(b.crossing_frequency) : json(nullptr)},
+                  {"stable_latency_windows", wj}});
+  }
   j["boundary"] = bj;
+  j["boundary_note"] = "critical_latency: the first loss of stability from latency 0 (for gains stable without delay); "
+                       "stable_latency_windows: every latency interval of the map where the loop is stable, ends refined "
+                       "by bisection (delay can stabilise a loop that is unstable without it)";
+  j["largest_stabilising_latency"] = {{"gain", std::isfinite(widest_gain) ? json(widest_gain) : json(nullptr)},
+                                      {"latency", widest_latency > 0 ? latency_json(widest_latency, T) : json(nullptr)},
+                                      {"note", "the upper end of the highest stable window over the map's gains (grid in gain)"}};
   j["best_gain"] = {{"gain", best.gain}, {"critical_latency_averaged", latency_json(best.latency, T)},
                     {"critical_latency_periodic", latency_json(periodic_critical, T)},
                     {"crossing_frequency_rad_s", std::isfinite(best.crossing_frequency) ? json(best.crossing_frequency) : json(nullptr)}};
@@ -532,6 +571,10 @@ int run_control_map(const FlightCommandOptions& o) {
                                                   : (std::isinf(periodic_critical) ? "beyond the map" : "none"));
     else
       fmt::print("  no gain in [{}, {}] stabilises the averaged hover at zero latency\n", c.control.map_gain_min, c.control.map_gain_max);
+    if (widest_latency > 0)
+      fmt::print("  largest latency any mapped gain tolerates: {:.2f} ms = {:.3f} wingbeats (gain {:.4g}, inside a stable "
+                 "window that does not reach latency 0 when the gain is below the zero-latency range)\n",
+                 widest_latency * 1e3, widest_latency / T, widest_gain);
     for (const auto& p : checks)
       fmt::print("  check {:7} gain {:.4g}, latency {:6.2f} ms: LTI {:+.4f}/wb, periodic {:+.4f}/wb, simulated {:+.4f}/wb{}\n",
                  p.inside ? "inside" : "outside", p.gain, p.latency * 1e3, p.lti_abscissa * T, std::log(p.floquet_radius),
