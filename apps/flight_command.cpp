@@ -531,7 +531,7 @@ int run_control_map(const FlightCommandOptions& o) {
       csv += fmt::format("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{}\n", gains[i], latencies[k], latencies[k] / T, a, a * T, a < 0 ? 1 : 0);
     }
   MapPlot mp;
-  mp.title = c.insect.name + ": growth per wingbeat under delayed pitch feedback (averaged model)";
+  mp.title = c.insect.name + ": delayed pitch feedback, averaged model";
   mp.xlabel = c.control.map_gain + " gain (" + gain_unit + ")";
   mp.ylabel = "latency (wingbeats)";
   mp.cblabel = "spectral abscissa per wingbeat";
@@ -545,7 +545,16 @@ int run_control_map(const FlightCommandOptions& o) {
     bl.x.push_back(b.gain);
     bl.y.push_back(std::isfinite(b.latency) ? b.latency / T : std::nan(""));
   }
+  Series edges{"stability boundary (window ends)", {}, {}};
+  for (std::size_t i = 0; i < gains.size(); ++i)
+    for (const auto& w : windows[i])
+      for (double e : {w.from, w.to})
+        if (e > 0 && std::isfinite(e)) {
+          edges.x.push_back(gains[i]);
+          edges.y.push_back(e / T);
+        }
   mp.lines = {bl};
+  mp.dots = {edges};
   Series sp{"simulated: decays", {}, {}}, su{"simulated: grows", {}, {}};
   for (const auto& p : checks) {
     Series& s = p.simulated_growth < 0 ? sp : su;

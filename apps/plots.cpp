@@ -115,7 +115,7 @@ std::optional<std::string> render_svg(const MapPlot& p, std::string& why) {
   if (!(zmax > 0)) zmax = 1;
   std::vector<std::string> data{d};
   std::string script = fmt::format(
-      "set title {}\nset xlabel {}\nset ylabel {}\nset cblabel {}\nset key outside right\n"
+      "set title {}\nset xlabel {}\nset ylabel {}\nset cblabel {}\nset key below\n"
       "set palette defined (-1 '#2166ac', 0 '#f7f7f7', 1 '#b2182b')\nset cbrange [{}:{}]\n"
       "set xrange [{}:{}]\nset yrange [{}:{}]\n",
       quote(p.title), quote(p.xlabel), quote(p.ylabel), quote(p.cblabel), -zmax, zmax, p.x.front(), p.x.back(),
@@ -130,6 +130,7 @@ std::optional<std::string> render_svg(const MapPlot& p, std::string& why) {
     plot += fmt::format(", 'd{}.dat' using 1:2 with {} title {}", data.size() - 1, style, quote(s.title));
   };
   for (const auto& s : p.lines) add(s, "lines lw 2 lc rgb 'black'");
+  for (const auto& s : p.dots) add(s, "points pt 7 ps 0.4 lc rgb 'black'");
   int pt = 7;
   for (const auto& s : p.points) {
     add(s, fmt::format("points pt {} ps 1.4", pt).c_str());

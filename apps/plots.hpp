@@ -42,6 +42,7 @@ struct MapPlot {
   std::vector<std::vector<double>> z;  // z[i][j] at (x[i], y[j])
   double zlimit = 0;                   // colour range [-zlimit, zlimit] (diverging; 0: from the data)
   std::vector<Series> lines, points;
+  std::vector<Series> dots;            // small black dots (e.g. refined boundary points)
 };
 std::optional<std::string> render_svg(const MapPlot& plot, std::string& why);
 
