@@ -241,7 +241,10 @@ int run_fly(const FlightCommandOptions& o) {
   plot.title = c.insect.name + ": free-flight response (" + dof_set_name(dofs) + ")";
   plot.xlabel = "time (wingbeats)";
   plot.ylabel = c.flight.start == "periodic-orbit" ? "deviation from the periodic orbit" : "state";
-  Series th{"pitch theta (deg)", {}, {}}, ph{"roll phi (deg)", {}, {}}, cm{"command (actuator unit)", {}, {}};
+  Series th{"pitch theta (deg)", {}, {}}, ph{"roll phi (deg)", {}, {}};
+  Series cm{dyn.actuators().empty() ? "command" : "command: " + dyn.actuators()[0].label() + " offset (" +
+                                                     TrimParameterization::unit(dyn.actuators()[0].name) + ")",
+            {}, {}};
   for (const FlightSample& s : r.samples) {
     const BodyStateVector d = c.flight.start == "periodic-orbit" ? BodyStateVector(s.x - reference.state(s.t)) : s.x;
     th.x.push_back(s.t / T);
