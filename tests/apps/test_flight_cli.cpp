@@ -67,6 +67,53 @@ TEST(FlyCli, HawkmothClosedLoopWritesTrajectoryAndRunJson) {
   EXPECT_EQ(j.at("result").at("deviation_per_wingbeat_nd").size(), 6u);
 }
 
+// The general state-feedback law written out as the pitch controller's two terms gives the same trajectory, and a
+// perturbation along the lateral Floquet mode (6DoF) is taken from the cyclic trim's monodromy.
+TEST(FlyCli, StateFeedbackEqualsThePitchControllerAndModePerturbation) {
+  const std::string h = hawkmoth_text();
+  const std::string a = fresh_dir("fly_pitch"), b = fresh_dir("fly_state");
+  const std::string pitch = testing::write_temp("fly_pitch.toml", h);
+  // 0.5 deg/deg = 0.5 * 180/pi deg per rad; 0.05 s = 0.05 * 180/pi deg per rad/s; limits -15 -/+ 20 deg (the
+  // stroke plane is not a trim parameter of the case, so it stays at -15 deg).
+  std::string sf = h;
+  sf.replace(sf.find("type = \"pitch\""), std::string("type = \"pitch\"").size(), "type = \"state-feedback\"");
+  sf += "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 28.64788975654116\n"
+        "latency_s = 0.041\n"
+        "[[control.feedback]]\nstate = \"q\"\nactuator = \"stroke_plane_deg\"\ngain = 2.864788975654116\n"
+        "latency_s = 0.041\n"
+        "[[control.actuator]]\nname = \"stroke_plane_deg\"\nlower = -35.0\nupper = 5.0\n";
+  const std::string state = testing::write_temp("fly_state.toml", sf);
+  ASSERT_EQ(flapstab("fly " + pitch + " -o " + a + " --wingbeats 4 -q").status, 0);
+  const CliResult r = flapstab("fly " + state + " -o " + b + " --wingbeats 4 -q");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream fa(a + "/trajectory.csv"), fb(b + "/trajectory.csv");
+  std::string la, lb;
+  int rows = 0;
+  while (std::getline(fa, la) && std::getline(fb, lb)) {
+    if (rows++ == 0) continue;
+    std::stringstream sa(la), sb(lb);
+    std::string ca, cb;
+    int col = 0;
+    while (std::getline(sa, ca, ',') && std::getline(sb, cb, ',')) {
+      const double x = std::stod(ca), y = std::stod(cb);
+      EXPECT_NEAR(x, y, 1e-9 * (1 + std::abs(x))) << "row " << rows << " column " << col;
+      ++col;
+    }
+  }
+  EXPECT_EQ(rows, 4 * 40 + 2);
+  std::string m = h;
+  m.replace(m.find("theta_deg = 0.5"), std::string("theta_deg = 0.5").size(), "mode = \"lateral\"\nmode_amplitude = 1e-4");
+  m.replace(m.find("dof = \"longitudinal\""), std::string("dof = \"longitudinal\"").size(), "dof = \"6dof\"");
+  const std::string c = fresh_dir("fly_mode");
+  const CliResult rm = flapstab("fly " + testing::write_temp("fly_mode.toml", m) + " -o " + c + " --wingbeats 2 -q");
+  ASSERT_EQ(rm.status, 0) << rm.err;
+  std::ifstream js(c + "/run.json");
+  const auto j = nlohmann::json::parse(js);
+  const auto mu = j.at("flight").at("mode_multiplier");
+  EXPECT_GT(std::hypot(mu[0].get<double>(), mu[1].get<double>()), 1.0);  // the lateral divergence
+  EXPECT_NE(j.at("flight").at("initial_state").at("phi_rad").get<double>(), 0.0);
+}
+
 // Bad input is refused before any work: exit status 2, the key named, no output directory.
 void expect_refused(const std::string& text, const std::string& command, const std::string& key) {
   const std::string path = testing::write_temp("bad_flight.toml", text);
@@ -93,9 +140,12 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
   expect_refused(replaced(h, "theta_deg = 0.5", "alpha_deg = 0.5"), "fly", "flight.perturbation.alpha_deg");
   expect_refused(replaced(h, "actuator = \"stroke_plane_deg\"", "actuator = \"wing_twist_deg\""), "fly",
                  "control.pitch.actuator");
-  expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"\n[[control.feedback]]\nstate = \"alpha\"\n"
-                                                 "actuator = \"stroke_plane_deg\"\ngain = 1.0"),
+  expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
+                     "\n[[control.feedback]]\nstate = \"alpha\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
                  "fly", "control.feedback[0].state");
+  expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
+                     "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
+                 "fly", "control.feedback[0].actuator");  // no [[control.actuator]] with its limits
   expect_refused(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "fly", "aero.model");
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
   expect_refused(replaced(h, "gain_max = 2.0", "gain_max = -1.0"), "control-map", "control.map.gain_max");

@@ -153,6 +153,30 @@ TEST(ClosedLoop, WingbeatUpdateHoldsTheCommandForEachWingbeat) {
   EXPECT_GT(changed, 1e-3);  // the held value does follow the (delayed) pitch
 }
 
+// Actuator limits: the command saturates at trim -/+ limit_deg and never passes it.
+TEST(ClosedLoop, CommandSaturatesAtTheActuatorLimit) {
+  const Loop& l = hawkmoth();
+  PitchControllerSettings s;
+  s.pitch_gain = 0.5;
+  s.rate_gain_s = 0.05;
+  s.pitch_latency_s = s.rate_latency_s = 0.02;
+  s.limit_deg = 0.05;
+  const ControllerSpec c = pitch_controller(s, l.trim);
+  const FlightDynamics dyn(*l.model, l.c.insect, l.h.cyclic.kinematics, c.actuators, DofSet::longitudinal);
+  BodyStateVector x0 = l.h.cyclic.initial_state;
+  x0(10) += 0.5 * deg;  // unsaturated the command would reach -0.25 deg
+  FlightOptions o;
+  o.wingbeats = 2;
+  const FlightResult r = simulate_flight(dyn, c, x0, reference_orbit(l.h.orbit, l.h.cyclic.period),
+                                         l.h.derivatives.table.reference, o);
+  double lo = 0;
+  for (const auto& smp : r.samples) {
+    EXPECT_LE(std::abs(smp.command[0]), 0.05 + 1e-12);
+    lo = std::min(lo, smp.command[0]);
+  }
+  EXPECT_NEAR(lo, -0.05, 1e-12);
+}
+
 // The neutral axis belongs to the wings: moving the centre of mass 0.25 c down relative to the hinges (re-trimmed)
 // moves the CoM 0.25 c further below the axis, to 2 % of the chord.
 TEST(NeutralAxis, MovesWithTheWingsNotWithTheCentreOfMass) {
