@@ -32,44 +32,18 @@ std::string output_dir(const Case& c, const std::string& given) {
   return d;
 }
 
-// The actuators a controller drives, with their absolute limits (parameter units).
+// The actuators a controller drives, with their absolute limits (parameter units); the pitch controller's limit
+// is relative to trim and set by pitch_controller.
 std::vector<TrimParameterSpec> controller_actuators(const Case& c) {
-  if (c.control.type == "pitch") {
-    TrimParameterSpec a;
-    a.name = c.control.actuator;
-    a.lower = -1e9;  // the pitch controller's limit is relative to trim; set by pitch_controller
-    a.upper = 1e9;
-    return {a};
-  }
+  if (c.control.type == "pitch") return {unbounded_parameter(c.control.actuator)};
   if (c.control.type == "state-feedback") return c.control.actuators;
   return {};
-}
-
-PitchControllerSettings pitch_settings(const Case& c) {
-  PitchControllerSettings s;
-  s.actuator = c.control.actuator;
-  s.pitch_gain = c.control.pitch_gain;
-  s.rate_gain_s = c.control.rate_gain_s;
-  s.pitch_latency_s = c.control.pitch_latency_s;
-  s.rate_latency_s = c.control.rate_latency_s;
-  s.filter_time_s = c.control.filter_time_s;
-  s.limit_deg = c.control.limit_deg;
-  s.update = c.control.update == "wingbeat" ? ControlUpdate::wingbeat : ControlUpdate::continuous;
-  return s;
-}
-
-double trimmed_value(const Kinematics& kin, const std::string& name, const std::string& file) {
-  TrimParameterSpec s;
-  s.name = name;
-  s.lower = -1e9;
-  s.upper = 1e9;
-  return TrimParameterization(kin, {s}, file).initial()[0];
 }
 
 ControllerSpec controller_from_case(const Case& c, const Kinematics& kin) {
   ControllerSpec spec;
   if (c.control.type == "pitch") {
-    spec = pitch_controller(pitch_settings(c), trimmed_value(kin, c.control.actuator, c.path));
+    spec = pitch_controller(pitch_controller_settings(c.control), parameter_value(kin, c.control.actuator, c.path));
     validate_controller(spec, c.path, "control.pitch");
   } else if (c.control.type == "state-feedback") {
     spec.actuators = c.control.actuators;
@@ -335,8 +309,8 @@ int run_control_map(const FlightCommandOptions& o) {
   const std::vector<TrimParameterSpec> actuators = controller_actuators(c);
   const HoverModel h = hover_model(c, *model, actuators);
   const double T = h.cyclic.period;
-  const double trim = trimmed_value(h.cyclic.kinematics, c.control.actuator, c.path);
-  const PitchControllerSettings base = pitch_settings(c);
+  const double trim = parameter_value(h.cyclic.kinematics, c.control.actuator, c.path);
+  const PitchControllerSettings base = pitch_controller_settings(c.control);
   const MapGain which = c.control.map_gain == "rate" ? MapGain::rate : MapGain::pitch;
   const LinearPlant& plant = h.longitudinal;
   const double latency_max = c.control.map_latency_max_s > 0 ? c.control.map_latency_max_s : 3 * T;

@@ -22,11 +22,7 @@ const Setup& hawkmoth() {
     Setup x;
     x.c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml");
     x.model = make_aero_model(x.c);
-    TrimParameterSpec a;
-    a.name = "stroke_plane_deg";
-    a.lower = -1e9;
-    a.upper = 1e9;
-    x.h = hover_model(x.c, *x.model, {a});
+    x.h = hover_model(x.c, *x.model, {unbounded_parameter("stroke_plane_deg")});
     x.trim = x.h.cyclic.kinematics.stroke_plane / deg;
     return x;
   }();

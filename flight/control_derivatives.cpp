@@ -2,6 +2,7 @@
 #include "flight/control_derivatives.hpp"
 
 #include "core/configuration.hpp"
+#include "flight/controller.hpp"
 #include "trim/parameters.hpp"
 
 namespace flapstab {
@@ -54,13 +55,7 @@ std::vector<TrimParameterSpec> actuated_parameters(const Case& c) {
       if (o.label() == s.label()) return;
     out.push_back(s);
   };
-  if (c.control.type == "pitch") {
-    TrimParameterSpec s;
-    s.name = c.control.actuator;
-    s.lower = -1e9;
-    s.upper = 1e9;
-    add(s);
-  }
+  if (c.control.type == "pitch") add(unbounded_parameter(c.control.actuator));
   if (c.control.type == "state-feedback")
     for (const auto& a : c.control.actuators) add(a);
   return out;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include "core/body_state.hpp"
 #include "core/errors.hpp"
+#include "trim/parameters.hpp"
 
 namespace flapstab {
 
@@ -39,6 +40,31 @@ ControllerSpec pitch_controller(const PitchControllerSettings& s, double trim) {
   c.terms.push_back({"q", s.actuator, s.rate_gain_s * per_rad, s.rate_latency_s, s.filter_time_s});
   c.update = s.update;
   return c;
+}
+
+PitchControllerSettings pitch_controller_settings(const ControlSettings& c) {
+  PitchControllerSettings s;
+  s.actuator = c.actuator;
+  s.pitch_gain = c.pitch_gain;
+  s.rate_gain_s = c.rate_gain_s;
+  s.pitch_latency_s = c.pitch_latency_s;
+  s.rate_latency_s = c.rate_latency_s;
+  s.filter_time_s = c.filter_time_s;
+  s.limit_deg = c.limit_deg;
+  s.update = c.update == "wingbeat" ? ControlUpdate::wingbeat : ControlUpdate::continuous;
+  return s;
+}
+
+TrimParameterSpec unbounded_parameter(const std::string& name) {
+  TrimParameterSpec s;
+  s.name = name;
+  s.lower = -1e9;
+  s.upper = 1e9;
+  return s;
+}
+
+double parameter_value(const Kinematics& kin, const std::string& name, const std::string& file) {
+  return TrimParameterization(kin, {unbounded_parameter(name)}, file).initial()[0];
 }
 
 void validate_controller(const ControllerSpec& c, const std::string& file, const std::string& key) {

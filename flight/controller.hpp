@@ -54,6 +54,13 @@ struct PitchControllerSettings {
   ControlUpdate update = ControlUpdate::continuous;
 };
 ControllerSpec pitch_controller(const PitchControllerSettings& s, double actuator_trim_value);
+// The [control] table's pitch-controller settings.
+PitchControllerSettings pitch_controller_settings(const ControlSettings& c);
+
+// A kinematic parameter without limits (an actuator whose range a controller sets, or one differentiated).
+TrimParameterSpec unbounded_parameter(const std::string& name);
+// The parameter's value in these kinematics (deg or Hz).
+double parameter_value(const Kinematics& kin, const std::string& name, const std::string& file = "");
 
 // Checks names, signs and finiteness; InputError naming file and key ("control...").
 void validate_controller(const ControllerSpec& c, const std::string& file, const std::string& key);

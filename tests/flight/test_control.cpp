@@ -24,11 +24,7 @@ const Loop& hawkmoth() {
     Loop x;
     x.c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml");
     x.model = make_aero_model(x.c);
-    std::vector<TrimParameterSpec> act(2);
-    act[0].name = "stroke_plane_deg";
-    act[1].name = "frequency_hz";
-    for (auto& a : act) a.lower = -1e9, a.upper = 1e9;
-    x.h = hover_model(x.c, *x.model, act);
+    x.h = hover_model(x.c, *x.model, {unbounded_parameter("stroke_plane_deg"), unbounded_parameter("frequency_hz")});
     x.trim = x.h.cyclic.kinematics.stroke_plane / deg;
     return x;
   }();
@@ -50,10 +46,7 @@ TEST(ControlDerivatives, FrequencyDerivativeIsTwiceTheLoadOverFrequency) {
   EXPECT_EQ(l.h.control.gravity_si.col(1).norm(), 0.0);
   // At the averaged trim the mean lift carries the weight: dZ/dn = -2 W / n. (The cyclic trim's kinematics, used
   // above, balance the weight along the oscillating orbit, not at rest.)
-  TrimParameterSpec f;
-  f.name = "frequency_hz";
-  f.lower = -1e9;
-  f.upper = 1e9;
+  const TrimParameterSpec f = unbounded_parameter("frequency_hz");
   const Kinematics& ka = l.h.averaged_trim.kinematics;
   const ControlDerivativeResult at_rest =
       control_derivatives(*l.model, l.c.insect, ka, {f}, l.h.derivatives.table.reference);
