@@ -389,6 +389,21 @@ int run_control_map(const FlightCommandOptions& o) {
       periodic_critical = 0.5 * (lo + hi);
     }
   }
+  // The periodic loop on a coarser grid over the same ranges: spectral radius of the delayed monodromy.
+  std::vector<double> pgains, plats;
+  Eigen::MatrixXd pradius;
+  const auto tp = std::chrono::steady_clock::now();
+  if (c.control.map_periodic_gains > 0) {
+    for (int i = 0; i < c.control.map_periodic_gains; ++i)
+      pgains.push_back(c.control.map_gain_min +
+                       (c.control.map_gain_max - c.control.map_gain_min) * i / (c.control.map_periodic_gains - 1));
+    for (int k = 0; k < c.control.map_periodic_latencies; ++k)
+      plats.push_back(latency_max * k / (c.control.map_periodic_latencies - 1));
+    pradius.resize(Eigen::Index(pgains.size()), Eigen::Index(plats.size()));
+    for (std::size_t i = 0; i < pgains.size(); ++i)
+      for (std::size_t k = 0; k < plats.size(); ++k) pradius(Eigen::Index(i), Eigen::Index(k)) = radius(pgains[i], plats[k]);
+  }
+  const double periodic_map_s = seconds_since(tp);
   // Check points: at the best gain, three latencies inside the averaged stable range and three beyond it.
   std::vector<CheckPoint> checks;
   if (std::isfinite(best.latency) && c.control.map_check_points > 0) {
@@ -449,6 +464,29 @@ int run_control_map(const FlightCommandOptions& o) {
   j["largest_stabilising_latency"] = {{"gain", std::isfinite(widest_gain) ? json(widest_gain) : json(nullptr)},
                                       {"latency", widest_latency > 0 ? latency_json(widest_latency, T) : json(nullptr)},
                                       {"note", "the upper end of the highest stable window over the map's gains (grid in gain)"}};
+  if (pradius.size() > 0) {
+    json rows = json::array();
+    int agree = 0, total = 0;
+    for (Eigen::Index i = 0; i < pradius.rows(); ++i) {
+      json row = json::array();
+      for (Eigen::Index k = 0; k < pradius.cols(); ++k) {
+        row.push_back(std::log(pradius(i, k)));
+        const double a = rightmost_roots(build(pgains[std::size_t(i)], plats[std::size_t(k)])).spectral_abscissa();
+        agree += (a < 0) == (pradius(i, k) < 1);
+        ++total;
+      }
+      rows.push_back(row);
+    }
+    j["periodic_map"] = {{"system", "time-periodic longitudinal loop along the cyclic-trim orbit: A(t) phase-resolved, "
+                                    "B(t) by differences of the free system in the actuator; semi-discretised monodromy"},
+                         {"gains", pgains},
+                         {"latencies_s", plats},
+                         {"growth_per_wingbeat", rows},
+                         {"growth_note", "log of the largest multiplier modulus per wingbeat (< 0 stable)"},
+                         {"points_where_averaged_and_periodic_agree", agree},
+                         {"points", total},
+                         {"time_s", periodic_map_s}};
+  }
   j["best_gain"] = {{"gain", best.gain}, {"critical_latency_averaged", latency_json(best.latency, T)},
                     {"critical_latency_periodic", latency_json(periodic_critical, T)},
                     {"crossing_frequency_rad_s", std::isfinite(best.crossing_frequency) ? json(best.crossing_frequency) : json(nullptr)}};
@@ -542,7 +580,23 @@ int run_control_map(const FlightCommandOptions& o) {
   std::string why;
   const auto svg = render_svg(mp, why);
   if (!svg) j["figure_notice"] = why;
+  std::optional<std::string> psvg;
+  if (pradius.size() > 0 && svg) {
+    MapPlot pm = mp;
+    pm.title = c.insect.name + ": delayed pitch feedback, periodic (Floquet) model";
+    pm.cblabel = "log of the largest multiplier modulus per wingbeat";
+    pm.x = pgains;
+    pm.y.clear();
+    for (double tau : plats) pm.y.push_back(tau / T);
+    pm.z.assign(pgains.size(), {});
+    for (std::size_t i = 0; i < pgains.size(); ++i)
+      for (std::size_t k = 0; k < plats.size(); ++k) pm.z[i].push_back(std::log(pradius(Eigen::Index(i), Eigen::Index(k))));
+    pm.lines.front().title = "critical latency (averaged, for comparison)";
+    pm.dots.front().title = "averaged stability boundary";
+    psvg = render_svg(pm, why);
+  }
   write_file_atomic(dir + "/control_map.json", j.dump(2) + "\n");
+  if (psvg) write_file_atomic(dir + "/control_map_periodic.svg", *psvg);
   write_file_atomic(dir + "/control_map.csv", csv);
   if (svg) write_file_atomic(dir + "/control_map.svg", *svg);
   if (!o.quiet) {
@@ -550,6 +604,10 @@ int run_control_map(const FlightCommandOptions& o) {
                open_abscissa * T, -na.z_at_com * 1e3, -na.z_at_com / h.derivatives.table.reference.c);
     fmt::print("  map {:.2f} s ({} collocation intervals{}), boundary and best gain {:.2f} s\n", map_s, map.nodes,
                map.converged ? ", verified" : "", boundary_s);
+    if (j.contains("periodic_map"))
+      fmt::print("  periodic map {} x {} in {:.2f} s: averaged and periodic agree on stability at {} of {} points\n",
+                 pgains.size(), plats.size(), periodic_map_s, j["periodic_map"]["points_where_averaged_and_periodic_agree"].get<int>(),
+                 j["periodic_map"]["points"].get<int>());
     if (std::isfinite(best.gain))
       fmt::print("  best {} gain {:.4g}: critical latency {} (averaged), {} (periodic)\n", c.control.map_gain, best.gain,
                  std::isfinite(best.latency) ? fmt::format("{:.2f} ms = {:.3f} wingbeats", best.latency * 1e3, best.latency / T) : "none",
@@ -575,7 +633,8 @@ int run_control_map(const FlightCommandOptions& o) {
         fmt::print("  {:>10.2f} {:>22.2f} {:>+10.4f} {:>+10.4f} {:>+10.4f}\n", p.dz / h.derivatives.table.reference.c,
                    p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth, p.simulated_growth);
     }
-    fmt::print("wrote {}/control_map.json, control_map.csv{} in {:.2f} s\n", dir, svg ? ", control_map.svg" : "", seconds_since(t0));
+    fmt::print("wrote {}/control_map.json, control_map.csv{}{} in {:.2f} s\n", dir, svg ? ", control_map.svg" : "",
+               psvg ? ", control_map_periodic.svg" : "", seconds_since(t0));
   }
   return 0;
 }

@@ -1,6 +1,7 @@
 // gnuplot-drawn SVG figures: data and script go to a temporary directory, gnuplot writes the SVG.
 #include "apps/plots.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -98,7 +99,42 @@ std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {
   return run_gnuplot(script + plot + "\n", {d}, why);
 }
 
-std::optional<std::string> render_svg(const MapPlot& p, std::string& why) {
+namespace {
+// Bilinear resampling of a map onto an n x n grid over the same ranges, so coarse maps do not draw as large
+// pixels spilling half a cell over the axes.
+MapPlot resampled(const MapPlot& p, std::size_t n) {
+  MapPlot r = p;
+  auto locate = [](const std::vector<double>& v, double t, std::size_t& i, double& f) {
+    i = std::min<std::size_t>(std::upper_bound(v.begin(), v.end(), t) - v.begin(), v.size() - 1);
+    i = i == 0 ? 0 : i - 1;
+    f = v[i + 1] > v[i] ? std::clamp((t - v[i]) / (v[i + 1] - v[i]), 0.0, 1.0) : 0.0;
+  };
+  r.x.clear();
+  r.y.clear();
+  for (std::size_t k = 0; k < n; ++k) {
+    r.x.push_back(p.x.front() + (p.x.back() - p.x.front()) * double(k) / double(n - 1));
+    r.y.push_back(p.y.front() + (p.y.back() - p.y.front()) * double(k) / double(n - 1));
+  }
+  r.z.assign(n, std::vector<double>(n, 0.0));
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = 0; b < n; ++b) {
+      std::size_t i, j;
+      double fx, fy;
+      locate(p.x, r.x[a], i, fx);
+      locate(p.y, r.y[b], j, fy);
+      r.z[a][b] = (1 - fx) * (1 - fy) * p.z[i][j] + fx * (1 - fy) * p.z[i + 1][j] + (1 - fx) * fy * p.z[i][j + 1] +
+                  fx * fy * p.z[i + 1][j + 1];
+    }
+  return r;
+}
+}  // namespace
+
+std::optional<std::string> render_svg(const MapPlot& given, std::string& why) {
+  if (given.x.size() < 2 || given.y.size() < 2) {
+    why = "a map needs at least two points on each axis";
+    return std::nullopt;
+  }
+  const MapPlot p = given.x.size() < 100 || given.y.size() < 100 ? resampled(given, 100) : given;
   // gnuplot's nonuniform matrix: first row n, x_1..x_n; then y_j, z(x_1, y_j) .. z(x_n, y_j).
   std::string d = fmt::format("{}", p.x.size());
   for (double x : p.x) d += fmt::format(" {:.10g}", x);

@@ -521,6 +521,12 @@ Case load_case(const std::string& path) {
   k.map_gains = cm.integer_or("gains", k.map_gains, 2, 2000);
   k.map_latency_max_s = latency(cm, "latency_max_s", 0.0);
   k.map_latencies = cm.integer_or("latencies", k.map_latencies, 2, 2000);
+  k.map_periodic_gains = cm.integer_or("periodic_gains", k.map_periodic_gains, 0, 200);
+  k.map_periodic_latencies = cm.integer_or("periodic_latencies", k.map_periodic_latencies, 0, 200);
+  if ((k.map_periodic_gains == 0) != (k.map_periodic_latencies == 0) || k.map_periodic_gains == 1 ||
+      k.map_periodic_latencies == 1)
+    cm.fail(k.map_periodic_gains == 1 || k.map_periodic_gains == 0 ? "periodic_gains" : "periodic_latencies",
+            "needs at least two points on both axes, or 0 on both", "both >= 2, or both 0 (no periodic map)");
   k.map_check_points = cm.integer_or("check_points", k.map_check_points, 0, 20);
   k.map_check_wingbeats = cm.positive_or("check_wingbeats", k.map_check_wingbeats, "wingbeats");
   cm.reject_unknown();

@@ -112,6 +112,7 @@ struct ControlSettings {
   int map_gains = 50;
   double map_latency_max_s = 0;       // 0: three wingbeats
   int map_latencies = 50;
+  int map_periodic_gains = 12, map_periodic_latencies = 12;  // the periodic (Floquet) loop's coarser map; 0: none
   int map_check_points = 3;           // simulated points each side of the boundary
   double map_check_wingbeats = 15;
 };

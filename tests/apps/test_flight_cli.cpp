@@ -155,7 +155,7 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
 // averaged, periodic and simulated models at the check points.
 TEST(ControlMapCli, SmallHawkmothMap) {
   std::string h = hawkmoth_text();
-  h = replaced(h, "gains = 50", "gains = 8\ncheck_points = 1\ncheck_wingbeats = 12");
+  h = replaced(h, "gains = 50", "gains = 8\ncheck_points = 1\ncheck_wingbeats = 12\nperiodic_gains = 3\nperiodic_latencies = 3");
   h = replaced(h, "latencies = 50", "latencies = 8");
   const std::string path = testing::write_temp("map_case.toml", h);
   const std::string dir = fresh_dir("map");
@@ -169,6 +169,12 @@ TEST(ControlMapCli, SmallHawkmothMap) {
   EXPECT_GT(j.at("open_loop").at("lti_growth_per_wingbeat").get<double>(), 0);  // the hover is unstable alone
   ASSERT_EQ(j.at("check_points").size(), 2u);
   for (const auto& p : j.at("check_points")) EXPECT_TRUE(p.at("all_three_agree").get<bool>()) << p.dump();
+  // The periodic loop's 3 x 3 map (gains -0.5, 0.75, 2; latencies 0, 1.5, 3 wingbeats) lies away from the boundary:
+  // the averaged and periodic models agree at every point.
+  ASSERT_TRUE(j.contains("periodic_map"));
+  EXPECT_EQ(j.at("periodic_map").at("points").get<int>(), 9);
+  EXPECT_EQ(j.at("periodic_map").at("points_where_averaged_and_periodic_agree").get<int>(), 9);
+  EXPECT_TRUE(fs::exists(dir + "/control_map_periodic.svg"));
   const double best = j.at("best_gain").at("critical_latency_averaged").at("wingbeats").get<double>();
   EXPECT_GT(best, 0.5);
   std::ifstream csv(dir + "/control_map.csv");
