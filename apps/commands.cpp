@@ -144,6 +144,13 @@ int run_stability(const CommandOptions& o) {
   DerivativeTable table;
   if (!o.derivatives_path.empty()) {
     table = read_derivative_table(o.derivatives_path);
+    const bool lon = o.model != "lateral", lat = o.model != "longitudinal";
+    if ((!lon || !table.has_longitudinal) && (!lat || !table.has_lateral))
+      throw InputError(o.derivatives_path, "derivatives",
+                       "holds no derivative section the '" + o.model + "' analysis can use",
+                       o.model == "lateral" ? "[derivatives.lateral]"
+                                            : (o.model == "longitudinal" ? "[derivatives.longitudinal]"
+                                                                         : "[derivatives.longitudinal] and/or [derivatives.lateral]"));
     j = {{"program", "flapstab"}, {"version", FLAPSTAB_VERSION}, {"command", "stability"},
          {"derivative_table", o.derivatives_path}, {"derivative_table_fnv1a64", file_hash(o.derivatives_path)}};
   } else {

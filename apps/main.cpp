@@ -90,7 +90,15 @@ int main(int argc, char** argv) {
                                              "(nine points, re-trimmed) and compare averaged, Floquet and simulated "
                                              "open-loop pitch growth with the CoM's distance below the neutral axis");
   cmap->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
-  CLI11_PARSE(app, argc, argv);
+  app.footer("Exit status: 0 success; 1 unexpected failure; 2 bad input (a missing or unreadable file, an invalid "
+             "option or key; the message names the file and key, nothing is written); 3 numerical failure (trim or "
+             "cyclic trim not converged, a CFD run diverged; the last CFD checkpoint is kept).");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // Help and version exit 0; every command-line error is bad input (2), as the footer says.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   try {
     if (trim->parsed()) return flapstab::run_trim_hover(o);
     if (der->parsed()) return flapstab::run_derivatives(o);

@@ -534,6 +534,8 @@ Case load_case(const std::string& path) {
 
   Section out = top.sub("output", false);
   c.output_directory = out.string("directory", false, "out");
+  if (c.output_directory.find_first_not_of(" \t") == std::string::npos)
+    out.fail("directory", "is empty", "a directory path (relative paths are taken from the working directory)");
   out.reject_unknown();
   top.reject_unknown();
   return c;

@@ -188,3 +188,41 @@ TEST(Cli, MissingCaseFileFails) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// Exit statuses as documented (flapstab --help footer, docs/user-guide.md): command-line errors are bad input.
+TEST(CliStatus, CommandLineErrorsAreBadInput) {
+  const std::string hawk = std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml";
+  EXPECT_EQ(flapstab("").status, 2);                                  // no subcommand
+  EXPECT_EQ(flapstab("fly-away " + hawk).status, 2);                  // unknown subcommand
+  EXPECT_EQ(flapstab("trim-hover /no/such/case.toml").status, 2);     // missing file
+  EXPECT_EQ(flapstab("cfd " + hawk + " --cycles 0").status, 2);       // option out of range
+  EXPECT_EQ(flapstab("stability " + hawk + " --model 7dof").status, 2);
+  EXPECT_EQ(flapstab("--help").status, 0);
+  EXPECT_EQ(flapstab("--version").status, 0);
+}
+
+// An empty [output] directory is refused when the case is read (before any computation), naming the key.
+TEST(CliStatus, EmptyOutputDirectoryIsBadInput) {
+  std::string text = valid_case_text();
+  text += "\n[output]\ndirectory = \"\"\n";
+  const std::string path = write_temp("empty_out.toml", text);
+  const CliRun r = flapstab("analyze " + path);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("'output.directory'"), std::string::npos) << r.err;
+}
+
+// A derivative table without a section the requested analysis can use is bad input, not an empty success.
+TEST(CliStatus, DerivativeTableWithoutSectionsIsBadInput) {
+  const std::string path = write_temp("no_sections.toml",
+                                      "[reference]\nU = 4.5\nc = 0.004\nS_t = 1e-4\nrho = 1.225\nfrequency = 155\n"
+                                      "[mass]\nm = 1.75e-4\nIyy = 4e-9\n");
+  const CliRun r = flapstab("stability --derivatives " + path);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("'derivatives'"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace flapstab

@@ -105,7 +105,6 @@ TEST(FloquetHover, DroneflyCloseToAveragedHawkmothLess) {
   EXPECT_LT(gd, 0.02);
   EXPECT_GT(gh, 2 * gd);
   EXPECT_GT(ghl, 2 * gdl);
-  EXPECT_LT(sh.wall_time_s, 10.0);  // not a timing test: a guard against a pathological slow-down
 }
 
 TEST(FloquetHover, JsonCarriesTheRequiredKeys) {
