@@ -52,15 +52,14 @@ class FlightSystem {
       term.filter = t.filter_time_s > 0 ? n_filters_++ : -1;
       terms_.push_back(term);
     }
+    lower_.assign(dyn.actuators().size(), -1e300);
+    upper_.assign(dyn.actuators().size(), 1e300);
     for (const auto& a : ctrl.actuators) {
-      const int i = *dyn.actuator_index(a.label());
-      lower_.resize(dyn.actuators().size(), -1e300);
-      upper_.resize(dyn.actuators().size(), 1e300);
-      lower_[std::size_t(i)] = a.lower - dyn.actuator_trim()[std::size_t(i)];
-      upper_[std::size_t(i)] = a.upper - dyn.actuator_trim()[std::size_t(i)];
+      const auto i = dyn.actuator_index(a.label());
+      if (!i) throw SolveError("free flight: actuator \"" + a.label() + "\" is not among the dynamics' actuators");
+      lower_[std::size_t(*i)] = a.lower - dyn.actuator_trim()[std::size_t(*i)];
+      upper_[std::size_t(*i)] = a.upper - dyn.actuator_trim()[std::size_t(*i)];
     }
-    lower_.resize(dyn.actuators().size(), -1e300);
-    upper_.resize(dyn.actuators().size(), 1e300);
     held_.assign(dyn.actuators().size(), 0.0);
     freq_ = dyn.actuator_index("frequency_hz");
   }
