@@ -14,7 +14,7 @@ json complex_json(std::complex<double> z) { return json::array({z.real(), z.imag
 
 json optional_json(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
-// What each non-dimensional state is, by name (ARCHITECTURE.md scalings).
+// What each non-dimensional state is, by name (docs/derivative-table.md scalings).
 std::string state_unit(const std::string& s) {
   if (s == "u" || s == "v" || s == "w") return s + "/U";
   if (s == "p" || s == "q" || s == "r") return s + " c/U";

@@ -3,7 +3,7 @@
 // (fine box around the swept volume, geometric stretching to the far field). FP64, 1 and 2 OpenMP threads. Cost
 // in ns per cell per step as WaterLily.jl reports it (PEERS.md A.1), the immersed boundary's share of it, and the
 // memory traffic of the body-free kernels per cell (bench_navier_stokes.cpp) with the bandwidth it implies
-// (DEPENDENCIES.md section 6: ~38 GB/s on one core, ~42 GB/s on two).
+// (a STREAM-type triad measured on this kind of machine: ~38 GB/s on one core, ~42 GB/s on two).
 // Run: cmake -S . -B build -DFLAPSTAB_BUILD_BENCH=ON && cmake --build build --target bench_immersed &&
 //      ./build/bench/bench_immersed
 #include <benchmark/benchmark.h>

@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "core/atomic_write.hpp"
+#include "core/case_file.hpp"
 #include "core/errors.hpp"
 
 namespace flapstab {
@@ -285,6 +286,9 @@ DerivativeTable read_derivative_table(const std::string& path) {
     static const std::vector<std::string> rows{"X", "Y", "Z", "L", "M", "N"};
     for (const auto& [k, v] : *ct) {
       const std::string name(k.str());
+      const auto& known = trim_parameter_names();
+      if (std::find(known.begin(), known.end(), name) == known.end())
+        ctl.fail(name, "unknown kinematic parameter", "a trim parameter name, e.g. stroke_plane_deg or frequency_hz");
       Section col = ctl.sub(name);
       if (!col.present()) ctl.fail(name, "is not a table", "[derivatives.control." + name + "] with X Y Z L M N");
       col.reject_unknown(rows);

@@ -4,7 +4,7 @@
 // [mass] m, Ixx, Iyy, Izz, Ixz; [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
 // [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp);
 // optional [derivatives.control.<parameter>] X Y Z L M N per unit of the parameter (e.g. stroke_plane_deg).
-// Dimensional entries SI; derivatives non-dimensional in hover stability axes (ARCHITECTURE.md):
+// Dimensional entries SI; derivatives non-dimensional in hover stability axes (docs/derivative-table.md):
 // forces / (1/2 rho U^2 S_t), moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U.
 #pragma once
 #include <map>

@@ -4,7 +4,7 @@
 // Phi(t) of Phi' = A(t) Phi, Phi(0) = I, after one period is the monodromy M = Phi(T); its eigenvalues
 // are the Floquet multipliers mu, the exponents lambda = log(mu) / T (principal branch), and
 // M v = mu v gives the Floquet mode's initial state v. |mu| > 1 (Re lambda > 0) is unstable.
-// For hover, lambda is reported per second, non-dimensional (times c / U, ARCHITECTURE.md) and per
+// For hover, lambda is reported per second, non-dimensional (times c / U, docs/derivative-table.md) and per
 // wingbeat (lambda T = log mu); modes are labelled by stability/modes.hpp applied to the exponent
 // matrix B = V diag(lambda) V^-1 (M = exp(B T)), whose eigenvalues are the exponents and whose
 // eigenvectors are M's, so the LTI vocabulary carries over unchanged (docs/theory/floquet.md).

@@ -1,4 +1,4 @@
-// LTI hover systems in the non-dimensional form of ARCHITECTURE.md: longitudinal, lateral, coupled 6DoF.
+// LTI hover systems in the non-dimensional form of docs/derivative-table.md (Sun & Xiong 2005): longitudinal, lateral, coupled 6DoF.
 //
 // Time t+ = t U / c; velocities u+ = u / U; rates p+ = p c / U; attitudes in rad.
 // m+ = m / (1/2 rho S_t c), I+ = I / (1/2 rho S_t c^3), g+ = g c / U^2 (Sun & Xiong 2005, J Exp Biol
@@ -30,11 +30,11 @@ struct NonDimensionalParameters {
 
 NonDimensionalParameters nondimensional_parameters(const DerivativeTable& table);
 
-// Longitudinal [u, w, q, theta]: ARCHITECTURE.md's matrix, entry for entry.
+// Longitudinal [u, w, q, theta]: the matrix of docs/derivative-table.md, entry for entry.
 StateSpace longitudinal_system(const DerivativeTable& table);
 // Lateral [v, p, r, phi]: Etkin's body-axis moment equations I_x p' - I_xz r' = L,
 // I_z r' - I_xz p' = N (Etkin & Reid 1996, Dynamics of Flight: Stability and Control, 3rd ed.,
-// ch. 4) in the scaling above; with I_xz = 0 it is ARCHITECTURE.md's matrix exactly.
+// ch. 4) in the scaling above; with I_xz = 0 it is docs/derivative-table.md's matrix exactly.
 StateSpace lateral_system(const DerivativeTable& table);
 // Coupled [u, v, w, p, q, r, phi, theta]: all 36 derivatives (cross-coupling included) with the full
 // inertia matrix; with zero cross-coupling it is the two systems above interleaved.

@@ -1,6 +1,6 @@
 // Eigen-analysis of an LTI system and classification of its natural modes of motion.
 //
-// Vocabulary (ARCHITECTURE.md): a complex pair is `oscillatory`, a stable real root a `subsidence`,
+// Vocabulary (docs/derivative-table.md): a complex pair is `oscillatory`, a stable real root a `subsidence`,
 // an unstable real root a `divergence`, a root with |Re| within tolerance of zero `neutral`; labels
 // are prefixed `stable`/`unstable` and, where several modes share a label, ranked `fast`/`slow`
 // by |lambda| ("intermediate" between them when three or more share it), e.g.

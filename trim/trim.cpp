@@ -15,7 +15,7 @@ namespace flapstab {
 
 namespace {
 
-// Ipopt 3.11 with MUMPS is not thread-safe (DEPENDENCIES.md Q5): every solve holds this lock.
+// Ipopt 3.11 with MUMPS is not thread-safe (Debian 12's coinor-libipopt with MUMPS): every solve holds this lock.
 std::mutex ipopt_mutex;
 
 // Scaled residuals r(x) and objective f(x) of the trim problem, with a one-point cache.

@@ -1,4 +1,4 @@
-// Exact Navier-Stokes solutions used to validate and benchmark the solver (REFERENCE.md).
+// Exact Navier-Stokes solutions used to validate and benchmark the solver (Taylor & Green 1937, Proc R Soc A 158:499; Stokes' second problem, e.g. Schlichting, Boundary-Layer Theory).
 #pragma once
 #include <cmath>
 #include "core/types.hpp"

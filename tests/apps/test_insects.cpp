@@ -41,7 +41,7 @@ TEST_P(Insects, TrimConverges) {
   EXPECT_LT(r.trim.relative_moment_residual, 1e-8);
 }
 
-// REFERENCE.md (Sun's group: bumblebee, hoverfly, dronefly, hawkmoth; averaged model): in hover
+// Sun's group (bumblebee, hoverfly, dronefly, hawkmoth; averaged model; e.g. Sun & Xiong 2005): in hover
 // X_u < 0, M_u > 0, Z_w < 0 and M_q < 0 dominate; three longitudinal modes: an unstable oscillatory
 // (pitch + surge), a stable fast subsidence and a stable slow subsidence (mainly vertical, w).
 TEST_P(Insects, PublishedLongitudinalPattern) {
@@ -76,7 +76,7 @@ TEST_P(Insects, PublishedLateralPattern) {
 
 INSTANTIATE_TEST_SUITE_P(Data, Insects, ::testing::Values("hawkmoth", "fruitfly", "dronefly", "bumblebee"));
 
-// Zhang & Sun 2010 (REFERENCE.md): the dronefly's unstable longitudinal mode doubles in ~14 wingbeats
+// Zhang & Sun 2010 (Acta Mech Sin 26:175): the dronefly's unstable longitudinal mode doubles in ~14 wingbeats
 // and its lateral divergence in ~9 (Navier-Stokes derivatives). The quasi-steady model agrees in kind;
 // we require the same order (within a factor of 2).
 TEST(Insects, DroneflyDoublingTimesHaveThePublishedOrder) {

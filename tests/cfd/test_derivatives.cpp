@@ -44,7 +44,7 @@ TEST(Derivatives, InsensitiveToStepSize) {
   }
 }
 
-// REFERENCE.md (Sun's group, hovering insects incl. hawkmoth): X_u < 0, M_u > 0, Z_w < 0, M_q < 0.
+// Sun's group (e.g. Sun & Xiong 2005, J Exp Biol 208:447; hovering insects incl. the hawkmoth): X_u < 0, M_u > 0, Z_w < 0, M_q < 0.
 TEST(Derivatives, HawkmothLikeLongitudinalPattern) {
   const Trimmed& tr = trimmed_case();
   const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);

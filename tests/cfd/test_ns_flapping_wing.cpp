@@ -1,5 +1,5 @@
 // Flapping Robofly wing (Dickinson, Lehmann & Sane 1999, Science 284:1954): docs/validation.md, "Flapping
-// wing (Robofly, Dickinson et al. 1999)"; spec: CFD.md, Validation, "Flapping wing".
+// wing (Robofly, Dickinson et al. 1999)".
 //
 // Case. One membrane wing with the digitised Robofly planform (tests/common/robofly.hpp: FLUSI's
 // 'robofly_dickinson' outline, pivot = hinge at the origin, tip at R = 1, root at 0.247 R) flaps in a

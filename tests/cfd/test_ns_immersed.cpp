@@ -6,7 +6,7 @@
 // no force.
 // Validation (docs/validation.md, "Immersed boundary"):
 //  - sphere, Re = 100, steady: C_D = 1.09 (Johnson & Patel 1999, J Fluid Mech 378:19, 1.08-1.09 across their
-//    grids; Mittal et al. 2008, J Comput Phys 227:4825, 1.08-1.09; reference 1.09 per CFD.md);
+//    grids; Mittal et al. 2008, J Comput Phys 227:4825, 1.08-1.09; reference 1.09);
 //  - sphere oscillating with small amplitude in fluid at rest: Stokes' oscillating-sphere force (Landau &
 //    Lifshitz, Fluid Mechanics, 2nd ed., section 24, problem 5), amplitude, phase and smoothness (fresh cells);
 //    the same case as a fixed sphere in an oscillating far field gives the same force once the Froude-Krylov

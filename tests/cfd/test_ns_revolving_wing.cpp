@@ -1,7 +1,7 @@
 // Revolving wing at constant angle of attack (Robofly translational coefficients): docs/validation.md,
-// "Revolving wing (Robofly)"; spec docs: CFD.md, Validation, "Flapping wing".
+// "Revolving wing (Robofly)".
 //
-// Reference (REFERENCE.md, "Quasi-steady coefficients"): Dickinson, Lehmann & Sane 1999 (Science 284:1954),
+// Reference: Dickinson, Lehmann & Sane 1999 (Science 284:1954),
 // the dynamically scaled fruit-fly wing ("Robofly": a 0.25 m Plexiglas wing in mineral oil, density 880 kg/m^3;
 // the oil's viscosity, about 115 cSt, and a 180 degree constant-speed sweep are recalled, NOT confirmed in the
 // searchable sources) revolved at constant angular velocity and constant angle of attack; the translational lift

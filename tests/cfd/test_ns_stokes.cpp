@@ -1,6 +1,6 @@
 // Wall-bounded flows at low Reynolds number with exact solutions: Stokes' second problem and plane Poiseuille flow.
 //
-// Stokes' second problem (REFERENCE.md): a wall at y = 0 oscillates in its plane, u_wall = U0 cos(omega t), under
+// Stokes' second problem (e.g. Schlichting & Gersten, Boundary-Layer Theory, ch. 5): a wall at y = 0 oscillates in its plane, u_wall = U0 cos(omega t), under
 // fluid that starts at rest; the periodic state is u = U0 e^{-y/delta} cos(omega t - y/delta), delta = sqrt(2 nu/omega).
 // U0 = 1, omega = 2 pi (period 1), delta = 0.1; domain x, z periodic (4 cells each), y in [0, 1] = 10 delta with a
 // resting no-slip wall at y = 1 (e^{-10} = 5e-5 of U0 reaches it); y cells h = delta/10 up to 2 delta, stretched by

@@ -1,4 +1,4 @@
-// Taylor-Green vortex in a periodic box (REFERENCE.md): u = -cos x sin y e^{-2 nu t}, v = sin x cos y e^{-2 nu t},
+// Taylor-Green vortex in a periodic box (Taylor & Green 1937, Proc R Soc A 158:499): u = -cos x sin y e^{-2 nu t}, v = sin x cos y e^{-2 nu t},
 // p = -(cos 2x + cos 2y) e^{-4 nu t} / 4, an exact solution of the Navier-Stokes equations, extruded in z (z-thin
 // periodic boxes keep the CI cases small). nu = 0.1 (Re = 10 on the vortex scale), t in [0, 1].
 // Checks: observed order of the velocity error in space (uniform and stretched grids) and in time, energy decay,

@@ -15,7 +15,7 @@ namespace flapstab {
 namespace {
 
 constexpr double rho = 1.225;
-constexpr double R = 0.05, cbar = 0.018;  // hawkmoth-sized wing (REFERENCE.md: R 51.9 mm, c 18.26 mm)
+constexpr double R = 0.05, cbar = 0.018;  // hawkmoth-sized wing (Berman & Wang 2007, J Fluid Mech 582:153, Table 2: R 51.9 mm, c 18.26 mm)
 
 Insect test_insect(Planform planform, double pitch_axis = 0.25, double body_drag = 0) {
   Insect in;

@@ -17,7 +17,7 @@ namespace flapstab::robofly {
 
 constexpr double deg = pi / 180;
 
-// Translational coefficients of the revolving Robofly wing (alpha in degrees; REFERENCE.md).
+// Translational coefficients of the revolving Robofly wing (alpha in degrees; Dickinson, Lehmann & Sane 1999, Science 284:1954).
 inline double translational_cl(double alpha_deg) { return 0.225 + 1.58 * std::sin((2.13 * alpha_deg - 7.20) * deg); }
 inline double translational_cd(double alpha_deg) { return 1.92 - 1.55 * std::cos((2.04 * alpha_deg - 9.82) * deg); }
 

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -286,3 +287,36 @@ TEST_F(DerivativeTableFile, UnknownKeysAreErrors) {
   expect_error(write(kGood + "\n[trim]\nx = 1\n"), "trim");
   expect_error(write(kGood + "\n[derivatives.coupling]\nXu = 1\n"), "derivatives.coupling.Xu");
 }
+
+// [derivatives.control.<parameter>]: read with the parameter's unit, written back bit for bit, unknown parameters
+// and keys refused.
+TEST_F(DerivativeTableFile, ControlSectionRoundTripAndErrors) {
+  const auto path = write(kGood + "\n[derivatives.control.stroke_plane_deg]\nX = -0.0427827\nM = 0.0129256\n"
+                                  "[derivatives.control.frequency_hz]\nZ = -0.0123\n");
+  const DerivativeTable t = read_derivative_table(path);
+  ASSERT_EQ(t.control.size(), 2u);
+  const ControlDerivative* sp = nullptr;
+  const ControlDerivative* fr = nullptr;
+  for (const auto& c : t.control) (c.parameter == "stroke_plane_deg" ? sp : fr) = &c;
+  ASSERT_TRUE(sp && fr);
+  EXPECT_EQ(sp->unit, "deg");
+  EXPECT_EQ(fr->unit, "Hz");
+  EXPECT_EQ(sp->nd(0), -0.0427827);
+  EXPECT_EQ(sp->nd(4), 0.0129256);
+  EXPECT_EQ(sp->nd(2), 0.0);  // missing entries are 0
+  EXPECT_EQ(fr->nd(2), -0.0123);
+  const auto back = write(derivative_table_toml(t));
+  const DerivativeTable u = read_derivative_table(back);
+  ASSERT_EQ(u.control.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k)
+    for (int i = 0; i < 6; ++i) {
+      const ControlDerivative& a = t.control[k];
+      const auto it = std::find_if(u.control.begin(), u.control.end(), [&](const auto& c) { return c.parameter == a.parameter; });
+      ASSERT_NE(it, u.control.end());
+      EXPECT_TRUE(bitwise_equal(a.nd(i), it->nd(i)));
+    }
+  expect_error(write(kGood + "\n[derivatives.control.wing_twist_deg]\nX = 1\n"), "derivatives.control.wing_twist_deg");
+  expect_error(write(kGood + "\n[derivatives.control.stroke_plane_deg]\nXu = 1\n"),
+               "derivatives.control.stroke_plane_deg.Xu");
+}
+

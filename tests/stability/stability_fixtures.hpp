@@ -11,7 +11,7 @@
 namespace flapstab::test {
 
 // A SYNTHETIC hover-like table, not a published one: round numbers with the sign pattern that
-// REFERENCE.md quotes for Sun's group (X_u < 0, M_u > 0 large, Z_w < 0, M_q < 0; X_w, Z_u, Z_q
+// Sun's group's sign pattern (e.g. Sun & Xiong 2005, J Exp Biol 208:447) (X_u < 0, M_u > 0 large, Z_w < 0, M_q < 0; X_w, Z_u, Z_q
 // small) and bumblebee-sized references (c = 4 mm, U = 4.5 m/s, 155 Hz), giving m+ ~ 700,
 // Iy+ ~ 1000, g+ ~ 0.002.
 inline DerivativeTable hover_like_table() {

@@ -22,9 +22,9 @@ bool has_state(const Mode& m, const std::string& s) {
 }  // namespace
 
 // The qualitative hover structure Sun's group reports for the bumblebee, dronefly, hoverfly and
-// hawkmoth (Sun & Xiong 2005, J Exp Biol 208:447; REFERENCE.md): one unstable oscillatory mode,
+// hawkmoth (Sun & Xiong 2005, J Exp Biol 208:447): one unstable oscillatory mode,
 // one stable fast subsidence, one stable slow subsidence mainly in w. The table is SYNTHETIC
-// (REFERENCE.md's sign pattern, round numbers): no published table with its m+, Iy+ and g+ was
+// (Sun's group's sign pattern, round numbers): no published table with its m+, Iy+ and g+ was
 // found to put in data/derivatives/.
 TEST(Analysis, HoverLikeLongitudinalStructure) {
   const auto r = analyse_stability(test::hover_like_table());

@@ -1,4 +1,4 @@
-// Tests of the LTI system builders (stability/lti.cpp) against ARCHITECTURE.md and Etkin's equations.
+// Tests of the LTI system builders (stability/lti.cpp) against the non-dimensional forms of docs/derivative-table.md (Sun & Xiong 2005) and Etkin's equations.
 #include "stability/lti.hpp"
 
 #include <gtest/gtest.h>
@@ -30,7 +30,7 @@ TEST(NonDimensional, Parameters) {
   EXPECT_DOUBLE_EQ(nd.time_scale_s, 0.004 / 4.5);
 }
 
-// ARCHITECTURE.md's two matrices, written out entry by entry from the formula.
+// The longitudinal and lateral matrices of docs/derivative-table.md, written out entry by entry from the formula.
 TEST(Systems, MatchArchitectureFormulaEntryByEntry) {
   const DerivativeTable t = hover_like_table();
   const auto nd = nondimensional_parameters(t);

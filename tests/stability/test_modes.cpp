@@ -44,7 +44,7 @@ StateSpace system_with_blocks(const std::vector<Eigen::MatrixXd>& blocks, bool d
     name += std::to_string(i);
     names.push_back(name);
   }
-  return {"test", names, A};
+  return {"test", names, A, {}, {}};
 }
 
 Eigen::MatrixXd scalar(double v) { return Eigen::MatrixXd::Constant(1, 1, v); }
