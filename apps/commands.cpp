@@ -22,10 +22,6 @@ namespace flapstab {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 TrimResult trimmed(const Case& c, const AeroModel& model) {
   TrimResult t = trim_hover(c, model);
   if (!t.converged)

@@ -22,10 +22,6 @@ namespace {
 
 using nlohmann::json;
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 std::string output_dir(const Case& c, const std::string& given) {
   const std::string d = given.empty() ? c.output_directory : given;
   if (d.empty()) throw InputError(c.path, "output.directory", "is empty", "a directory path (or give -o DIR)");
@@ -438,16 +434,11 @@ int run_control_map(const FlightCommandOptions& o) {
               {"system", "averaged longitudinal [u, w, q, theta] with the control derivatives, SI, delay-exact"},
               {"gains", gains},
               {"latencies_s", latencies},
-              {"spectral_abscissa_per_s", json::array()},
+              {"spectral_abscissa_per_s", matrix_json(map.abscissa)},
               {"collocation_intervals", map.nodes},
               {"discretisation_verified", map.converged},
               {"map_time_s", map_s},
               {"boundary_time_s", boundary_s}};
-  for (Eigen::Index i = 0; i < map.abscissa.rows(); ++i) {
-    json row = json::array();
-    for (Eigen::Index k = 0; k < map.abscissa.cols(); ++k) row.push_back(map.abscissa(i, k));
-    j["map"]["spectral_abscissa_per_s"].push_back(row);
-  }
   json bj = json::array();
   for (std::size_t i = 0; i < boundary.size(); ++i) {
     const auto& b = boundary[i];

@@ -9,6 +9,7 @@
 #include "cfd/aero_factory.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "flight/hover_model.hpp"
 
 namespace flapstab {
 
@@ -52,21 +53,11 @@ json complex_list(const std::vector<cplx>& v) {
   return j;
 }
 
-json matrix_rows(const Eigen::MatrixXd& m) {
-  json j = json::array();
-  for (Eigen::Index i = 0; i < m.rows(); ++i) {
-    json row = json::array();
-    for (Eigen::Index k = 0; k < m.cols(); ++k) row.push_back(m(i, k));
-    j.push_back(row);
-  }
-  return j;
-}
-
 json analysis_json(const FloquetAnalysis& f) {
   json j = {{"state_order", f.state_order},
             {"period_s", f.period_s},
-            {"monodromy_si", matrix_rows(f.monodromy_si)},
-            {"monodromy_nd", matrix_rows(f.monodromy_nd)},
+            {"monodromy_si", matrix_json(f.monodromy_si)},
+            {"monodromy_nd", matrix_json(f.monodromy_nd)},
             {"multipliers", complex_list(f.multipliers)},
             {"exponents_per_s", complex_list(f.exponents_per_s)},
             {"exponents_nd", complex_list(f.exponents_nd)},
@@ -96,10 +87,6 @@ json subsystem_json(const FloquetSubsystem& f) {
   return j;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 std::string fmt_c(cplx z) { return fmt::format("{:+.5f} {:+.5f}i", z.real(), z.imag()); }
 
 void print_subsystem(const char* title, const FloquetSubsystem& f) {
@@ -120,23 +107,15 @@ void print_subsystem(const char* title, const FloquetSubsystem& f) {
 
 FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases) {
   const auto t0 = std::chrono::steady_clock::now();
-  check_cyclic_trim_case(c, model);
+  // The averaged trim, cyclic trim, derivatives at the cyclic trim's kinematics (so both analyses see the same
+  // wingbeat), orbit and phase-resolved derivatives: flight/hover_model.hpp computes them once for every user.
+  HoverModel h = hover_model(c, model, {}, phases);
   FloquetStudy s;
-  s.averaged_trim = trim_hover(c, model);
-  if (!s.averaged_trim.converged)
-    throw SolveError(fmt::format("{}: the averaged trim (the cyclic trim's start) did not converge ({})", c.path,
-                                 s.averaged_trim.message));
-  s.cyclic = cyclic_trim(c, model, s.averaged_trim);
-  if (!s.cyclic.converged)
-    throw SolveError(fmt::format("{}: cyclic trim did not converge ({}); periodicity residual {:.2e}", c.path,
-                                 s.cyclic.message, s.cyclic.residual));
-  // The averaged model about the cyclic trim's kinematics, so both analyses see the same wingbeat.
-  s.averaged = cycle_averaged_derivatives(model, c.insect, s.cyclic.kinematics, c.fluid, c.derivatives.relative_step);
+  s.averaged_trim = std::move(h.averaged_trim);
+  s.cyclic = std::move(h.cyclic);
+  s.averaged = std::move(h.derivatives);
+  s.phase = std::move(h.phase);
   const StabilityReport lti = analyse_stability(s.averaged.table);
-  const int N = phases > 0 ? phases : c.aero.quasi_steady.samples_per_cycle;
-  const InstantaneousAero aero(model, c.insect, s.cyclic.kinematics);
-  const std::vector<BodyStateVector> orbit = periodic_orbit(aero, s.cyclic.initial_state, N);
-  s.phase = phase_resolved_derivatives(aero, orbit, s.averaged.table.reference, c.derivatives.relative_step);
   const ReferenceQuantities& ref = s.averaged.table.reference;
   s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
   s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
@@ -186,7 +165,7 @@ json floquet_json(const Case& c, const FloquetStudy& s) {
                                      {"velocity_step_m_s", s.phase.velocity_step},
                                      {"rate_step_rad_s", s.phase.rate_step},
                                      {"about", "the cyclic orbit (each phase's own body velocity and rates)"},
-                                     {"cycle_mean_nd", matrix_rows(s.phase.mean_wrench_nd())}};
+                                     {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}};
   // The longitudinal subsystem is the headline: its keys at the top level.
   const json lon_j = subsystem_json(s.longitudinal);
   for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();

@@ -19,6 +19,16 @@ std::string file_hash(const std::string& path) {
   return fmt::format("{:016x}", h);
 }
 
+json matrix_json(const Eigen::MatrixXd& m) {
+  json j = json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < m.cols(); ++k) row.push_back(m(i, k));
+    j.push_back(row);
+  }
+  return j;
+}
+
 json metadata_json(const Case& c, const std::string& command) {
   return {{"program", "flapstab"},
           {"version", FLAPSTAB_VERSION},

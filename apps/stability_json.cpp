@@ -1,5 +1,6 @@
 // JSON and Markdown forms of stability results: every file names its axes, state order and units.
 #include "apps/stability_json.hpp"
+#include "apps/results_json.hpp"
 
 #include <cmath>
 #include <fmt/format.h>
@@ -110,27 +111,15 @@ json to_json(const Mode& m, const std::vector<std::string>& states) {
 }
 
 json to_json(const StabilityAnalysis& a) {
-  json rows = json::array();
-  for (Eigen::Index i = 0; i < a.system_matrix_nd.rows(); ++i) {
-    json row = json::array();
-    for (Eigen::Index j = 0; j < a.system_matrix_nd.cols(); ++j) row.push_back(a.system_matrix_nd(i, j));
-    rows.push_back(row);
-  }
   json units = json::array();
   for (const auto& s : a.state_order) units.push_back(state_unit(s));
   json modes = json::array();
   for (const auto& m : a.modes) modes.push_back(to_json(m, a.state_order));
-  json brows = json::array();
-  for (Eigen::Index i = 0; i < a.input_matrix_nd.rows() && a.input_matrix_nd.cols() > 0; ++i) {
-    json row = json::array();
-    for (Eigen::Index j = 0; j < a.input_matrix_nd.cols(); ++j) row.push_back(a.input_matrix_nd(i, j));
-    brows.push_back(row);
-  }
   return {{"state_order", a.state_order},
           {"state_units", units},
-          {"system_matrix_nd", rows},
+          {"system_matrix_nd", matrix_json(a.system_matrix_nd)},
           {"input_order", a.input_order},
-          {"input_matrix_nd", brows},
+          {"input_matrix_nd", a.input_matrix_nd.cols() > 0 ? matrix_json(a.input_matrix_nd) : json::array()},
           {"input_note", "d/dt+ x = A x + B delta: delta in each input's unit (deg or Hz), columns in input_order"},
           {"time_scale_s", a.reference.time_scale()},
           {"wingbeat_frequency_hz", a.reference.frequency},
