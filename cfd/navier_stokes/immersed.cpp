@@ -199,7 +199,7 @@ struct Entry {
 struct ImmersedBoundary::Impl {
   struct Part {
     TriangleMesh mesh;  // reference frame
-    PartMotion motion;
+    PartMotion motion;  // empty: moved by set_parts
     LevelSet ls;
     BoundingBox box;              // reference-frame mesh bounding box
     std::vector<Vec3> centroid;   // per triangle, reference frame
@@ -219,6 +219,8 @@ struct ImmersedBoundary::Impl {
   std::vector<std::uint8_t> forced_bits;  // per cell: bit d set when its lower d-face was forced this stage
   std::vector<PartState> stage_states;    // the parts at the last stage's time
   double stage_time = 0;
+  std::vector<PartState> given;           // the kinematics from set_parts, at given_time
+  double given_time = std::numeric_limits<double>::quiet_NaN();
   std::size_t n_solid = 0, n_band = 0;
   double last_adt = 0;
   struct Exchange {
@@ -346,11 +348,32 @@ struct ImmersedBoundary::Impl {
     }
   }
 
-  std::vector<PartState> states_at(double t) const {
+  // The kinematics of every part at time t: the values set for t (set_parts), else the closures with their
+  // accelerations by central differences of the material points' velocity (step eps).
+  static bool same_time(double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a)); }
+  PartState state_of(std::size_t ip, double t, double eps) const {
+    if (!given.empty() && same_time(t, given_time)) return given[ip];
+    const Part& p = parts[ip];
+    if (!p.motion)
+      throw std::logic_error("immersed boundary: part '" + p.mesh.label + "' has no kinematics for t = " +
+                             std::to_string(t) + " (call set_parts at every stage time)");
+    PartState st = p.motion(t);
+    const PartState sp = p.motion(t + eps), sm = p.motion(t - eps);
+    const Vec3 y = st.pose.apply_inverse(st.velocity.centre);
+    st.acceleration = (sp.velocity.at(sp.pose.apply(y)) - sm.velocity.at(sm.pose.apply(y))) / (2 * eps);
+    st.angular_acceleration = (sp.velocity.omega - sm.velocity.omega) / (2 * eps);
+    return st;
+  }
+  std::vector<PartState> states_at(double t, double eps) const {
     std::vector<PartState> st;
     st.reserve(parts.size());
-    for (const Part& p : parts) st.push_back(p.motion(t));
+    for (std::size_t ip = 0; ip < parts.size(); ++ip) st.push_back(state_of(ip, t, eps));
     return st;
+  }
+  // The parts at the solver's time t: the last stage's (its end is the step's end), or sampled.
+  std::vector<PartState> states_now(double t) const {
+    if (stage_states.size() == parts.size() && same_time(t, stage_time)) return stage_states;
+    return states_at(t, last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t)));
   }
 
   // Decodes an entry's component and indices.
@@ -387,7 +410,7 @@ struct ImmersedBoundary::Impl {
   }
 
   void force(VectorField& ustar, double t, double adt) {
-    const std::vector<PartState> states = states_at(t);
+    const std::vector<PartState> states = states_at(t, 0.05 * adt);
     entries.clear();
     for (int d = 0; d < 3; ++d) collect(d, states, entries);
     values.resize(entries.size());
@@ -432,9 +455,6 @@ struct ImmersedBoundary::Impl {
     // the fluid; the fictitious fluid inside a part (solid faces) is accelerated with the part, which takes
     // rho a dV of that. The fluid's force on the part is therefore -sum rho (u_forced - u*) dV / (alpha dt) over
     // all forced faces + sum over solid faces of rho a dV.
-    const double eps = 0.05 * adt;
-    std::vector<PartState> plus, minus;
-    for (const Part& q : parts) plus.push_back(q.motion(t + eps)), minus.push_back(q.motion(t - eps));
     exchange.assign(parts.size(), Exchange{});
     // Keys are unique (one entry per face), so the write-back runs in parallel; the sums are per thread.
 #pragma omp parallel if (entries.size() >= 4096)
@@ -453,10 +473,7 @@ struct ImmersedBoundary::Impl {
       const Vec3 x(xp[0], xp[1], xp[2]);
       const PartState& st = states[ip];
       double f = -opt.density * (values[m] - u) * vol / adt;  // d-component of the force on the part (N)
-      if (entries[m].phi < 0) {
-        const Vec3 y = st.pose.apply_inverse(x);
-        f += opt.density * vol * (plus[ip].velocity.at(plus[ip].pose.apply(y)) - minus[ip].velocity.at(minus[ip].pose.apply(y)))[d] / (2 * eps);
-      }
+      if (entries[m].phi < 0) f += opt.density * vol * st.acceleration_at(x)[d];
       Vec3 F = Vec3::Zero();
       F[d] = f;
       Exchange& e = mine[ip];
@@ -493,9 +510,6 @@ struct ImmersedBoundary::Impl {
     const Shape s = grid.shape();
     forced_bits.resize(s.size(), 0);
     for (const Entry& e : entries) forced_bits[std::size_t(e.key % std::int64_t(s.size()))] |= std::uint8_t(1u << (e.key / std::int64_t(s.size())));
-    const double eps = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(stage_time));
-    std::vector<PartState> plus, minus;
-    for (const Part& q : parts) plus.push_back(q.motion(stage_time + eps)), minus.push_back(q.motion(stage_time - eps));
     const std::int64_t base = 3 * std::int64_t(s.size());
     std::vector<double> newp(cells.size(), std::numeric_limits<double>::quiet_NaN());
 #pragma omp parallel for schedule(static) if (cells.size() >= 4096)
@@ -521,7 +535,7 @@ struct ImmersedBoundary::Impl {
       nrm.normalize();
       const double dist = opt.probe_near * h - double(cells[m].phi);  // from the cell centre to the probe
       const Vec3 probe = x + dist * nrm;
-      const Vec3 a = (plus[ip].velocity.at(plus[ip].pose.apply(y)) - minus[ip].velocity.at(minus[ip].pose.apply(y))) / (2 * eps);
+      const Vec3 a = st.acceleration_at(x);
       newp[m] = sample_fluid_pressure(p, q, st.pose, probe) + dist * a.dot(nrm);
     }
     for (std::size_t m = 0; m < cells.size(); ++m)
@@ -563,12 +577,7 @@ struct ImmersedBoundary::Impl {
   template <class F>
   void visit(const Solver& sv, int ip, F&& f) const {
     const Part& p = parts[std::size_t(ip)];
-    const double t = sv.time();
-    const PartState st = p.motion(t);
-    // Surface acceleration: centred difference of the material point's velocity (step: a fraction of the last
-    // stage, or 1e-6 of the time scale before any step).
-    const double e = last_adt > 0 ? 0.05 * last_adt : 1e-6 * std::max(1.0, std::abs(t));
-    const PartState sp = p.motion(t + e), sm = p.motion(t - e);
+    const PartState st = states_now(sv.time())[std::size_t(ip)];
     const VectorField& u = sv.velocity();
     const Field& pr = sv.pressure();
     const int sides = p.mesh.membrane ? 2 : 1;
@@ -576,8 +585,7 @@ struct ImmersedBoundary::Impl {
       const Vec3 x = st.pose.apply(p.centroid[tri]);
       const Vec3 n = st.pose.rotation * p.normal[tri];
       const double h = local_width(grid, x);
-      const Vec3& c = p.centroid[tri];
-      const Vec3 a = (sp.velocity.at(sp.pose.apply(c)) - sm.velocity.at(sm.pose.apply(c))) / (2 * e);
+      const Vec3 a = st.acceleration_at(x);
       for (int side = 0; side < sides; ++side) {
         const Vec3 ns = side == 0 ? n : Vec3(-n);
         const Vec3 xs = p.mesh.membrane ? Vec3(x + opt.membrane_half_thickness * h * ns) : x;  // effective surface
@@ -618,6 +626,13 @@ ImmersedBoundary::~ImmersedBoundary() = default;
 
 int ImmersedBoundary::add_part(TriangleMesh reference, PartMotion motion) {
   if (!motion) throw std::invalid_argument("immersed boundary: part '" + reference.label + "' has no motion");
+  const PartState s0 = motion(0.0);
+  const int i = add_part(std::move(reference), s0);
+  impl_->parts.back().motion = std::move(motion);
+  return i;
+}
+
+int ImmersedBoundary::add_part(TriangleMesh reference, const PartState& s0) {
   reference.check();
   if (reference.size() == 0) throw std::invalid_argument("immersed boundary: part '" + reference.label + "' has no triangles");
   if (!reference.membrane && reference.open_or_inconsistent_edges() != 0)
@@ -630,7 +645,6 @@ int ImmersedBoundary::add_part(TriangleMesh reference, PartMotion motion) {
   // width taken where the part starts (t = 0).
   double hmin = std::numeric_limits<double>::infinity();
   for (const Axis& ax : m.grid.axis) hmin = std::min(hmin, ax.min_width());
-  const PartState s0 = motion(0.0);
   const double href = m.max_width(transformed_box(p.box, s0.pose, 0));
   const double spacing = hmin / m.opt.lattice_refinement;
   const double margin = (m.opt.probe_far + 2 + (reference.membrane ? m.opt.membrane_half_thickness : 0)) * href;
@@ -645,28 +659,38 @@ int ImmersedBoundary::add_part(TriangleMesh reference, PartMotion motion) {
     p.normal[t] = av / p.area[t];
   }
   p.mesh = std::move(reference);
-  p.motion = std::move(motion);
   m.parts.push_back(std::move(p));
   return int(m.parts.size()) - 1;
 }
 
 std::size_t ImmersedBoundary::parts() const { return impl_->parts.size(); }
 const std::string& ImmersedBoundary::label(int part) const { return impl_->parts.at(std::size_t(part)).mesh.label; }
-PartState ImmersedBoundary::state(int part, double t) const { return impl_->parts.at(std::size_t(part)).motion(t); }
+PartState ImmersedBoundary::state(int part, double t) const {
+  impl_->parts.at(std::size_t(part));
+  return impl_->states_now(t)[std::size_t(part)];
+}
+
+void ImmersedBoundary::set_parts(double t, const std::vector<PartState>& states) {
+  if (states.size() != impl_->parts.size())
+    throw std::invalid_argument("immersed boundary: set_parts got " + std::to_string(states.size()) +
+                                " part states for " + std::to_string(impl_->parts.size()) + " parts");
+  impl_->given = states;
+  impl_->given_time = t;
+}
 
 TriangleMesh ImmersedBoundary::surface(int part, double t) const {
   const auto& p = impl_->parts.at(std::size_t(part));
-  return p.mesh.transformed(p.motion(t).pose);
+  return p.mesh.transformed(state(part, t).pose);
 }
 
 BoundingBox ImmersedBoundary::bounding_box(int part, double t) const {
   const auto& p = impl_->parts.at(std::size_t(part));
-  return transformed_box(p.box, p.motion(t).pose, 0);
+  return transformed_box(p.box, state(part, t).pose, 0);
 }
 
 double ImmersedBoundary::level_set(int part, double t, const Vec3& x) const {
   const auto& p = impl_->parts.at(std::size_t(part));
-  return p.ls.at(p.motion(t).pose.apply_inverse(x));
+  return p.ls.at(state(part, t).pose.apply_inverse(x));
 }
 
 void ImmersedBoundary::attach(Solver& solver) {
@@ -674,7 +698,7 @@ void ImmersedBoundary::attach(Solver& solver) {
     throw std::invalid_argument("immersed boundary: the solver's grid is not the one the boundary was built on");
   impl_->solver = &solver;
   solver.attach(this);
-  impl_->mark_flags(impl_->states_at(solver.time()));
+  impl_->mark_flags(impl_->states_now(solver.time()));
 }
 
 void ImmersedBoundary::after_predictor(VectorField& ustar, double t, double alpha_dt) {

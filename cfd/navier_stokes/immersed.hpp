@@ -31,11 +31,21 @@
 
 namespace flapstab::ns {
 
-// Where a rigid part is at time t (its reference frame placed in the grid's axes) and its velocity field.
+// Where a rigid part is at one instant (its reference frame placed in the grid's axes), its velocity field and
+// its acceleration field (the kinematics handed to the immersed boundary at each Runge-Kutta stage).
 struct PartState {
   RigidTransform pose;     // reference frame -> grid axes (m)
   RigidVelocity velocity;  // rigid velocity of the part's points, grid axes (m/s, rad/s)
+  Vec3 acceleration = Vec3::Zero();          // of the material point at velocity.centre (m/s^2)
+  Vec3 angular_acceleration = Vec3::Zero();  // rad/s^2
+  // Acceleration of the material point at x (rigid body: a + alpha x r + omega x (omega x r), r = x - centre).
+  Vec3 acceleration_at(const Vec3& x) const {
+    const Vec3 r = x - velocity.centre;
+    return acceleration + angular_acceleration.cross(r) + velocity.omega.cross(velocity.omega.cross(r));
+  }
 };
+// A prescribed motion as a function of time (pose and velocity; the accelerations are taken by central
+// differences of the velocity field when the immersed boundary samples it).
 using PartMotion = std::function<PartState(double t)>;
 
 // A part that does not move.
@@ -73,8 +83,16 @@ class ImmersedBoundary final : public StageHooks {
   // Adds a rigid part (reference-frame mesh, closed or membrane, labelled by mesh.label); returns its index.
   // Throws std::invalid_argument for a degenerate mesh or a closed mesh with open edges.
   int add_part(TriangleMesh reference, PartMotion motion);
+  // A part moved by its driver: set_parts() gives its kinematics at every stage time (no closure of time); the
+  // initial state places its level-set lattice.
+  int add_part(TriangleMesh reference, const PartState& initial);
+  // The kinematics of every part at time t (a driver calls it before each stage at the stage's time, and before
+  // attach()/restore at the solver's time). Parts with a PartMotion closure take the given value as well.
+  // std::invalid_argument if the count differs from parts().
+  void set_parts(double t, const std::vector<PartState>& states);
   std::size_t parts() const;
   const std::string& label(int part) const;
+  // The part's kinematics at time t: from its closure, or the value set for t (std::logic_error if none).
   PartState state(int part, double t) const;
   // The part's surface at time t in grid axes (for VTK output).
   TriangleMesh surface(int part, double t) const;

@@ -120,6 +120,7 @@ class CheckpointReader {
   CheckpointReader& operator=(const CheckpointReader&) = delete;
 
   const CheckpointHeader& header() const { return header_; }
+  const std::string& path() const { return path_; }
   std::vector<std::string> names() const;
   bool contains(const std::string& name) const;
   std::vector<std::size_t> shape(const std::string& name) const;

@@ -1,0 +1,91 @@
+// forces.csv (forces_csv.hpp).
+#include "cfd/navier_stokes/forces_csv.hpp"
+
+#include <stdexcept>
+#include <vector>
+#include <fmt/format.h>
+
+namespace flapstab::ns {
+
+Wrench CfdLoadRow::total() const {
+  Wrench w;
+  for (const auto& q : part) {
+    w.force += q.pressure_force + q.viscous_force;
+    w.moment += q.pressure_moment + q.viscous_moment;
+  }
+  return w;
+}
+
+std::string forces_csv_header() {
+  std::string h =
+      "# flapstab cfd: loads of the fluid on each part at every time step\n"
+      "# axes: hover stability axes S (x forward, y right, z down), body-fixed; origin O = wingbeat-mean centre of "
+      "mass; moments about O\n"
+      "# units: time s, force N, moment N m, power W; phase = t / T modulo 1\n"
+      "# parts: body, right (wing), left (wing); p = pressure part, v = viscous part; P = the part's rate of work on "
+      "the air; wing_power_W = the wings' work on the air through their motion relative to the body\n";
+  std::string cols = "time_s,step,phase";
+  for (const char* part : part_names) {
+    for (const char* kind : {"p", "v"})
+      for (const char* a : {"x", "y", "z"}) cols += fmt::format(",{}_F{}_{}_N", part, a, kind);
+    for (const char* kind : {"p", "v"})
+      for (const char* a : {"x", "y", "z"}) cols += fmt::format(",{}_M{}_{}_N_m", part, a, kind);
+    cols += fmt::format(",{}_P_W", part);
+  }
+  cols += ",Fx_N,Fy_N,Fz_N,Mx_N_m,My_N_m,Mz_N_m,wing_power_W";
+  return h + cols + "\n";
+}
+
+std::string forces_csv_row(const CfdLoadRow& r) {
+  std::string s = fmt::format("{:.17g},{},{:.17g}", r.time, r.step, r.phase);
+  auto v3 = [&](const Vec3& v) { s += fmt::format(",{:.17g},{:.17g},{:.17g}", v.x(), v.y(), v.z()); };
+  for (const auto& q : r.part) {
+    v3(q.pressure_force);
+    v3(q.viscous_force);
+    v3(q.pressure_moment);
+    v3(q.viscous_moment);
+    s += fmt::format(",{:.17g}", q.power);
+  }
+  const Wrench w = r.total();
+  v3(w.force);
+  v3(w.moment);
+  s += fmt::format(",{:.17g}\n", r.wing_power);
+  return s;
+}
+
+CfdLoadRow parse_forces_csv_row(const std::string& line) {
+  std::vector<double> v;
+  std::size_t pos = 0;
+  while (pos <= line.size()) {
+    std::size_t next = line.find(',', pos);
+    if (next == std::string::npos) next = line.size();
+    const std::string cell = line.substr(pos, next - pos);
+    std::size_t used = 0;
+    const double x = std::stod(cell, &used);
+    if (used == 0) throw std::invalid_argument("forces.csv: not a number: " + cell);
+    v.push_back(x);
+    pos = next + 1;
+  }
+  if (v.size() != 3 + 3 * 13 + 7) throw std::invalid_argument("forces.csv: a row with " + std::to_string(v.size()) + " columns");
+  CfdLoadRow r;
+  r.time = v[0];
+  r.step = long(v[1]);
+  r.phase = v[2];
+  std::size_t k = 3;
+  auto v3 = [&] {
+    const Vec3 a(v[k], v[k + 1], v[k + 2]);
+    k += 3;
+    return a;
+  };
+  for (auto& q : r.part) {
+    q.pressure_force = v3();
+    q.viscous_force = v3();
+    q.pressure_moment = v3();
+    q.viscous_moment = v3();
+    q.power = v[k++];
+  }
+  r.wing_power = v.back();
+  return r;
+}
+
+}  // namespace flapstab::ns

@@ -1,0 +1,31 @@
+// Loads of one CFD step per part and the forces.csv format (docs/cfd-files.md).
+#pragma once
+#include <string>
+#include "core/types.hpp"
+
+namespace flapstab::ns {
+
+inline constexpr const char* part_names[3] = {"body", "right", "left"};
+
+// Loads of one step, about O in stability axes S (N, N m, W).
+struct CfdLoadRow {
+  double time = 0;
+  long step = 0;
+  double phase = 0;  // t / T modulo 1
+  struct Part {
+    Vec3 pressure_force = Vec3::Zero(), viscous_force = Vec3::Zero();
+    Vec3 pressure_moment = Vec3::Zero(), viscous_moment = Vec3::Zero();
+    double power = 0;  // W: rate of work of the part on the air (grid frame)
+    Wrench wrench() const { return Wrench{pressure_force + viscous_force, pressure_moment + viscous_moment}; }
+  } part[3];           // body, right, left
+  double wing_power = 0;  // W: the wings' work on the air from their motion relative to the body (AeroModel power)
+  Wrench total() const;
+};
+
+// The header lines of forces.csv (each starts with '#') and its column names.
+std::string forces_csv_header();
+std::string forces_csv_row(const CfdLoadRow& r);
+// The inverse of forces_csv_row (without its newline); std::invalid_argument for a malformed row.
+CfdLoadRow parse_forces_csv_row(const std::string& line);
+
+}  // namespace flapstab::ns

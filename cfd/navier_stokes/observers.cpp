@@ -1,0 +1,196 @@
+// Observers of a Simulation (observers.hpp).
+#include "cfd/navier_stokes/observers.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <ostream>
+#include <regex>
+#include <fmt/format.h>
+
+#include "cfd/navier_stokes/diagnostics.hpp"
+#include "core/atomic_write.hpp"
+
+namespace flapstab::ns {
+
+namespace fs = std::filesystem;
+
+bool crossed(int per_cycle, double period, double ta, double tb) {
+  if (per_cycle <= 0) return false;
+  const double n = per_cycle / period;
+  return std::floor(tb * n + 1e-6) > std::floor(ta * n + 1e-6);
+}
+
+std::string fmt_seconds(double s) {
+  if (!std::isfinite(s)) return "?";
+  if (s < 120) return fmt::format("{:.1f} s", s);
+  if (s < 7200) return fmt::format("{:.1f} min", s / 60);
+  return fmt::format("{:.2f} h", s / 3600);
+}
+
+// ---- forces.csv ------------------------------------------------------------------------------------------------
+
+void ForcesCsv::keep_earlier(const std::string& file, long step) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line.rfind("time_s", 0) == 0) continue;
+    const auto a = line.find(','), b = line.find(',', a + 1);
+    if (a == std::string::npos || b == std::string::npos) continue;
+    if (std::stol(line.substr(a + 1, b - a - 1)) <= step) {
+      lines_.push_back(line + "\n");
+      earlier_.push_back(parse_forces_csv_row(line));
+    }
+  }
+}
+
+void ForcesCsv::on_step(const Simulation&, const StepReport& r) {
+  rows_.push_back(r.row);
+  if (!path_.empty()) lines_.push_back(forces_csv_row(r.row));
+}
+
+void ForcesCsv::flush() const {
+  if (path_.empty()) return;
+  std::string text = forces_csv_header();
+  for (const auto& l : lines_) text += l;
+  write_file_atomic(path_, text);
+}
+
+std::vector<CfdLoadRow> ForcesCsv::since(double t, double period) const {
+  std::vector<CfdLoadRow> out;
+  for (const auto* rows : {&earlier_, &rows_})
+    for (const auto& r : *rows)
+      if (r.time > t - 1e-9 * period) out.push_back(r);
+  return out;
+}
+
+// ---- checkpoints -----------------------------------------------------------------------------------------------
+
+namespace {
+
+long checkpoint_step(const std::string& file) {
+  static const std::regex re(R"(checkpoint_(\d+)\.h5)");
+  std::smatch m;
+  return std::regex_match(file, m, re) ? std::stol(m[1].str()) : -1;
+}
+
+}  // namespace
+
+std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir) {
+  std::vector<std::pair<long, std::string>> out;
+  if (!fs::is_directory(dir)) return out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const long s = checkpoint_step(e.path().filename().string());
+    if (s >= 0 && e.is_regular_file()) out.emplace_back(s, e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void Checkpointer::write(const Simulation& sim) {
+  const std::string path = fmt::format("{}/checkpoint_{:09d}.h5", dir_, sim.step());
+  fs::create_directories(dir_);
+  write_state(path, sim.state(), values_, text_);
+  if (csv_) csv_->flush();
+  last_ = path;
+  last_step_ = sim.step();
+  auto list = checkpoints_in(dir_);  // keep the newest
+  for (std::size_t i = 0; i + std::size_t(keep_) < list.size(); ++i) fs::remove(list[i].second);
+}
+
+void Checkpointer::on_step(const Simulation& sim, const StepReport& r) {
+  if (crossed(per_cycle_, sim.plan().period, r.t_before, r.time)) write(sim);
+}
+
+// ---- fields and surfaces ---------------------------------------------------------------------------------------
+
+namespace {
+
+RectilinearAxes rectilinear(const Grid& g) {
+  RectilinearAxes a;
+  std::vector<double>* out[3] = {&a.x, &a.y, &a.z};
+  for (int d = 0; d < 3; ++d) out[d]->assign(g.axis[d].xf.begin() + 1, g.axis[d].xf.begin() + g.axis[d].n + 2);
+  return a;
+}
+
+}  // namespace
+
+void FieldOutput::write(const Simulation& sim) {
+  const Grid& grid = sim.grid();
+  if (!writer_) writer_.emplace(dir_, "fields", rectilinear(grid), precision_);
+  const CentreFields cf = centre_fields(grid, sim.solver().velocity());
+  const Shape sh = grid.shape();
+  std::vector<double> pa(sh.cells());
+  std::size_t n = 0;
+  const double rho = sim.plan().rho;
+  for (int k = 1; k <= sh.nz; ++k)
+    for (int j = 1; j <= sh.ny; ++j)
+      for (int i = 1; i <= sh.nx; ++i) pa[n++] = rho * sim.solver().pressure()(i, j, k);
+  auto arr = [](const std::vector<double>& v) { return CellArray{v.data()}; };
+  writer_->write(sim.time(), sim.step(),
+                 {CellField{"velocity", "m/s", {arr(cf.u[0]), arr(cf.u[1]), arr(cf.u[2])}},
+                  CellField{"pressure", "Pa", {arr(pa)}},
+                  CellField{"vorticity", "1/s", {arr(cf.w[0]), arr(cf.w[1]), arr(cf.w[2])}},
+                  CellField{"q_criterion", "1/s^2", {arr(cf.q)}}});
+}
+
+void SurfaceOutput::write(const Simulation& sim) {
+  if (!sim.has_bodies()) return;
+  if (!writer_) writer_.emplace(dir_, "surfaces");
+  std::vector<TriangleMesh> meshes;
+  std::vector<SurfacePart> parts;
+  for (int i = 0; i < 3; ++i) meshes.push_back(sim.surface(i));
+  for (int i = 0; i < 3; ++i) {
+    const SurfacePressure sp = sim.surface_pressure(i);
+    SurfacePart part{&meshes[std::size_t(i)], {}};
+    part.data.cell_data.push_back({"pressure", "Pa", 1, sp.front});
+    if (!sp.back.empty()) part.data.cell_data.push_back({"pressure_back", "Pa", 1, sp.back});
+    parts.push_back(std::move(part));
+  }
+  writer_->write(sim.time(), sim.step(), parts);
+}
+
+// ---- progress --------------------------------------------------------------------------------------------------
+
+void ProgressLog::on_start(const Simulation&) {
+  start_ = last_log_ = after_warmup_ = clock::now();
+}
+
+double ProgressLog::steps_left(const Simulation& sim, double dt) const {
+  if (end_step_ > 0) return double(end_step_ - sim.step());
+  return dt > 0 ? std::max(0.0, (end_time_ - sim.time()) / dt) : 0.0;
+}
+
+double ProgressLog::seconds_per_step() const {
+  if (warm_steps_ > 2)
+    return std::chrono::duration<double>(clock::now() - after_warmup_).count() / double(warm_steps_ - 2);
+  return estimate_;
+}
+
+void ProgressLog::on_step(const Simulation& sim, const StepReport& r) {
+  const bool last = end_step_ > 0 ? sim.step() >= end_step_ : r.time >= end_time_ * (1 - 1e-12);
+  if (++warm_steps_ == 2 || (last && warm_steps_ < 2)) {
+    after_warmup_ = clock::now();
+    estimate_ = std::chrono::duration<double>(after_warmup_ - start_).count() / double(warm_steps_);
+    if (log_)
+      *log_ << fmt::format("  estimate (timed on the first {} steps): {:.3g} s per step = {:.0f} ns per cell per step; "
+                           "{} for the {:.0f} steps left\n",
+                           warm_steps_, estimate_, 1e9 * estimate_ / double(sim.cells()),
+                           fmt_seconds(estimate_ * steps_left(sim, r.dt)), steps_left(sim, r.dt));
+  }
+  const auto now = clock::now();
+  if (log_ && (std::chrono::duration<double>(now - last_log_).count() >= seconds_ || last ||
+               crossed(1, sim.plan().period, r.t_before, r.time))) {
+    last_log_ = now;
+    int iters = 0;
+    for (const auto& st : sim.solver().poisson_stats()) iters += st.cycles;
+    const double per = std::chrono::duration<double>(now - start_).count() / double(std::max<long>(1, warm_steps_));
+    const double T = sim.plan().period;
+    *log_ << fmt::format("  step {:>7}  t/T {:8.4f}  cycle {:>3}  dt {:.3e} s  CFL {:.3f}  Poisson {:>2} it  ETA {}\n",
+                         sim.step(), r.time / T, std::max(1, int(std::ceil(r.time / T - 1e-9))), r.dt, r.cfl, iters,
+                         fmt_seconds(per * steps_left(sim, r.dt)));
+  }
+}
+
+}  // namespace flapstab::ns

@@ -1,0 +1,137 @@
+// Observers of a Simulation: what a run writes and prints, each a small object called after every step
+// (forces.csv, flow fields, surfaces, checkpoints, progress, run.json; docs/cfd-files.md).
+#pragma once
+#include <chrono>
+#include <iosfwd>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/io_vtk.hpp"
+#include "cfd/navier_stokes/simulation.hpp"
+
+namespace flapstab::ns {
+
+class StepObserver {
+ public:
+  virtual ~StepObserver() = default;
+  virtual void on_start(const Simulation&) {}
+  virtual void on_step(const Simulation& sim, const StepReport& report) = 0;
+  virtual void on_end(const Simulation&) {}
+};
+
+// True when [ta, tb] crosses one of `per_cycle` equally spaced instants per period (none for per_cycle <= 0).
+bool crossed(int per_cycle, double period, double ta, double tb);
+
+// Every row of the run; forces.csv written atomically by flush() and at the end ("" path: in memory only). On a
+// restart the rows of the interrupted run up to the checkpoint come first.
+class ForcesCsv final : public StepObserver {
+ public:
+  explicit ForcesCsv(std::string path) : path_(std::move(path)) {}
+  // Reads the rows of an earlier forces.csv up to and including `step` (a restart from that step).
+  void keep_earlier(const std::string& file, long step);
+  void on_step(const Simulation&, const StepReport& r) override;
+  void on_end(const Simulation&) override { flush(); }
+  void flush() const;
+  const std::vector<CfdLoadRow>& rows() const { return rows_; }        // this run's
+  const std::vector<CfdLoadRow>& earlier() const { return earlier_; }  // the interrupted run's
+  // Rows (earlier and this run's) with time > t - 1e-9 period.
+  std::vector<CfdLoadRow> since(double t, double period) const;
+
+ private:
+  std::string path_;
+  std::vector<CfdLoadRow> rows_, earlier_;
+  std::vector<std::string> lines_;
+};
+
+// Checkpoints per wingbeat (and at the end), keeping the newest `keep`; each flushes forces.csv first.
+class Checkpointer final : public StepObserver {
+ public:
+  Checkpointer(std::string directory, int per_cycle, std::map<std::string, double> values,
+               std::map<std::string, std::string> text, const ForcesCsv* csv, int keep = 2)
+      : dir_(std::move(directory)), per_cycle_(per_cycle), values_(std::move(values)), text_(std::move(text)),
+        csv_(csv), keep_(keep) {}
+  void write(const Simulation& sim);
+  void on_step(const Simulation& sim, const StepReport& r) override;
+  void on_end(const Simulation& sim) override {
+    if (last_step_ != sim.step()) write(sim);
+  }
+  void set_last(std::string path, long step) { last_ = std::move(path), last_step_ = step; }
+  const std::string& last() const { return last_; }
+  long last_step() const { return last_step_; }
+
+ private:
+  std::string dir_;
+  int per_cycle_;
+  std::map<std::string, double> values_;
+  std::map<std::string, std::string> text_;
+  const ForcesCsv* csv_;
+  int keep_;
+  std::string last_;
+  long last_step_ = -1;
+};
+
+// Cell-centred velocity, pressure (Pa), vorticity and Q criterion, per_cycle times per wingbeat (HDF5 + XDMF).
+class FieldOutput final : public StepObserver {
+ public:
+  FieldOutput(std::string directory, int per_cycle, FieldPrecision precision)
+      : dir_(std::move(directory)), per_cycle_(per_cycle), precision_(precision) {}
+  void write(const Simulation& sim);
+  void on_step(const Simulation& sim, const StepReport& r) override {
+    if (crossed(per_cycle_, sim.plan().period, r.t_before, r.time)) write(sim);
+  }
+
+ private:
+  std::string dir_;
+  int per_cycle_;
+  FieldPrecision precision_;
+  std::optional<FieldWriter> writer_;
+};
+
+// The parts' surfaces with their pressure (VTK PolyData series), per_cycle times per wingbeat.
+class SurfaceOutput final : public StepObserver {
+ public:
+  SurfaceOutput(std::string directory, int per_cycle) : dir_(std::move(directory)), per_cycle_(per_cycle) {}
+  void write(const Simulation& sim);
+  void on_step(const Simulation& sim, const StepReport& r) override {
+    if (crossed(per_cycle_, sim.plan().period, r.t_before, r.time)) write(sim);
+  }
+
+ private:
+  std::string dir_;
+  int per_cycle_;
+  std::optional<SurfaceWriter> writer_;
+};
+
+// Timings (the estimate after two steps, the measured cost per step) and progress lines with the ETA.
+class ProgressLog final : public StepObserver {
+ public:
+  using clock = std::chrono::steady_clock;
+  // end_step > 0: the run ends at that step (fixed dt); else at end_time.
+  ProgressLog(std::ostream* log, double seconds, long end_step, double end_time)
+      : log_(log), seconds_(seconds), end_step_(end_step), end_time_(end_time) {}
+  void on_start(const Simulation&) override;
+  void on_step(const Simulation& sim, const StepReport& r) override;
+  bool estimated() const { return warm_steps_ >= 2; }
+  double seconds_per_step_estimate() const { return estimate_; }
+  // Measured over the steps after the first two (the estimate if there were no more).
+  double seconds_per_step() const;
+  double steps_left(const Simulation& sim, double dt) const;
+
+ private:
+  std::ostream* log_;
+  double seconds_;
+  long end_step_;
+  double end_time_;
+  clock::time_point start_, last_log_, after_warmup_;
+  long warm_steps_ = 0;
+  double estimate_ = 0;
+};
+
+std::string fmt_seconds(double s);
+// The checkpoint files checkpoint_STEP.h5 in a directory, by step.
+std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir);
+
+}  // namespace flapstab::ns

@@ -1,0 +1,151 @@
+// The plan of a CFD run (plan.hpp).
+#include "cfd/navier_stokes/plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <fmt/format.h>
+
+#include "cfd/navier_stokes/insect_motion.hpp"
+#include "core/configuration.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::ns {
+
+MeshResolution mesh_resolution(const CfdSettings& s) {
+  MeshResolution r;
+  r.body = s.body_divisions;
+  r.wing_span = s.wing_span_stations;
+  r.wing_chord = s.wing_chord_divisions;
+  return r;
+}
+
+std::string grid_summary(const Grid& g) {
+  std::string s = fmt::format("{}x{}x{}", g.axis[0].n, g.axis[1].n, g.axis[2].n);
+  for (const auto& a : g.axis) s += fmt::format(" [{:.17g},{:.17g},{:.17g}]", a.lo, a.hi, a.min_width());
+  return s;
+}
+
+Grid plan_grid(const CfdPlan& plan) {
+  return Grid(Axis::stretched(plan.axes[0], false), Axis::stretched(plan.axes[1], false),
+              Axis::stretched(plan.axes[2], false));
+}
+
+CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, int cycles_override) {
+  return plan_cfd(c, kin, std::vector<BodyMotion>{motion}, cycles_override);
+}
+
+CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMotion>& motions, int cycles_override) {
+  if (motions.empty()) throw std::invalid_argument("plan_cfd: no motion");
+  const CfdSettings& s = c.aero.cfd;
+  const std::string& file = c.path;
+  CfdPlan p;
+  p.cycles = cycles_override > 0 ? cycles_override : s.cycles;
+  p.period = kin.period();
+  const double R = c.insect.wing.length, cbar = c.insect.wing.mean_chord;
+  p.rho = c.fluid.density;
+  p.u_ref = 2 * kin.stroke_amplitude() * kin.frequency_hz * R;
+  p.l_ref = cbar;
+  if (s.reynolds > 0) {
+    if (!(p.u_ref > 0))
+      throw InputError(file, "aero.cfd.reynolds", "the wings do not move (U_ref = 2 Phi f R = 0)",
+                       "a case with a non-zero stroke amplitude, or [fluid] viscosity instead");
+    p.reynolds = s.reynolds;
+    p.nu = p.u_ref * p.l_ref / s.reynolds;
+  } else {
+    p.nu = c.fluid.kinematic_viscosity;
+    p.reynolds = p.u_ref * p.l_ref / p.nu;
+  }
+  // Swept volume: every vertex of every part over the run (one wingbeat suffices without body rotation).
+  const Configuration config(c.insect, kin);
+  const InsectSurfaces surfaces(config, mesh_resolution(s));
+  const auto& ref = surfaces.reference();
+  BoundingBox box;
+  for (const BodyMotion& motion : motions) {
+    const InsectMotion im(config, motion);
+    p.body_speed_max = std::max(p.body_speed_max, motion.velocity.norm());
+    const bool rotating = motion.rate.norm() > 0;
+    const int samples = rotating ? std::min(64 * p.cycles, 1024) : 64;
+    const double span = rotating ? p.cycles * p.period : p.period;
+    for (int k = 0; k <= samples; ++k) {
+      const double t = span * k / samples;
+      const auto parts = im.parts(t);
+      const auto rel = im.relative(t);
+      for (int i = 0; i < 3; ++i)
+        for (const Vec3& v : ref[std::size_t(i)].vertices) {
+          const Vec3 x = parts[std::size_t(i)].pose.apply(v);
+          box.add(x);
+          if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, rel[std::size_t(i)].at(x).norm());
+        }
+    }
+  }
+  p.swept_lo = box.lo;
+  p.swept_hi = box.hi;
+  p.h = s.cells_per_wing_length > 0 ? R / s.cells_per_wing_length : cbar / s.cells_per_chord;
+  const std::string res_key = s.cells_per_wing_length > 0 ? "aero.cfd.cells_per_wing_length" : "aero.cfd.cells_per_chord";
+  p.fine_lo = box.lo - Vec3::Constant(s.fine_margin_R * R);
+  p.fine_hi = box.hi + Vec3::Constant(s.fine_margin_R * R);
+  // Faces: x- downstream (behind), x+ upstream (ahead), y +-lateral, z- above, z+ below.
+  const double lo_margin[3] = {s.downstream_R, s.lateral_R, s.above_R};
+  const double hi_margin[3] = {s.upstream_R, s.lateral_R, s.below_R};
+  const char* lo_key[3] = {"aero.cfd.downstream_R", "aero.cfd.lateral_R", "aero.cfd.above_R"};
+  const char* hi_key[3] = {"aero.cfd.upstream_R", "aero.cfd.lateral_R", "aero.cfd.below_R"};
+  for (int d = 0; d < 3; ++d) {
+    p.domain_lo[d] = p.fine_lo[d] - lo_margin[d] * R;
+    p.domain_hi[d] = p.fine_hi[d] + hi_margin[d] * R;
+    StretchedAxis a;
+    a.lo = p.domain_lo[d];
+    a.hi = p.domain_hi[d];
+    a.box_lo = p.fine_lo[d];
+    a.box_hi = p.fine_hi[d];
+    a.h = p.h;
+    a.max_ratio = s.stretch_ratio;
+    a.multiple_of = 8;
+    p.axes.push_back(a);
+  }
+  // The immersed boundary's forcing band and probes reach about 4 fine cells beyond a surface: every part must
+  // stay that far from the box faces over the whole run.
+  const double clearance = 4 * p.h;
+  for (int d = 0; d < 3; ++d)
+    for (int side = 0; side < 2; ++side) {
+      const double gap = side == 0 ? p.swept_lo[d] - p.domain_lo[d] : p.domain_hi[d] - p.swept_hi[d];
+      if (gap < clearance)
+        throw InputError(file, (side == 0 ? lo_key : hi_key)[d],
+                         fmt::format("a part comes within {:.3g} m of the domain's {}{} face (the run needs {:.3g} m, "
+                                     "4 fine cells): the insect leaves the domain",
+                                     gap, "xyz"[d], side == 0 ? '-' : '+', clearance),
+                         "a larger margin (this key or aero.cfd.fine_margin_R)");
+    }
+  // The fine box's actual spacing (the generator rounds the cell count up).
+  double hmax = 0;
+  for (int d = 0; d < 3; ++d) {
+    const Axis a = Axis::stretched(p.axes[std::size_t(d)], false);
+    for (int i = 1; i <= a.n; ++i)
+      if (a.xc[i] > p.fine_lo[d] && a.xc[i] < p.fine_hi[d]) hmax = std::max(hmax, a.dc[i]);
+  }
+  p.h_actual = hmax > 0 ? hmax : p.h;
+  p.chord_cells = cbar / p.h_actual;
+  if (p.chord_cells < 4)
+    throw InputError(file, res_key,
+                     fmt::format("the mean chord ({:.4g} m) spans only {:.2f} fine cells (h = {:.4g} m)", cbar,
+                                 p.chord_cells, p.h_actual),
+                     "at least 4 cells per mean chord (8 or more recommended)");
+  if (p.chord_cells < 8)
+    p.warnings.push_back(fmt::format("the mean chord spans only {:.2f} fine cells: loads will be rough "
+                                     "(8 or more recommended; key {})", p.chord_cells, res_key));
+  if (s.stretch_ratio > 1.08)
+    p.warnings.push_back(fmt::format("stretch_ratio = {} above 1.08: the multigrid preconditioner converges more "
+                                     "slowly on strongly stretched cells", s.stretch_ratio));
+  p.steps_per_cycle = s.steps_per_cycle;
+  if (p.steps_per_cycle > 0) {
+    p.dt = p.period / p.steps_per_cycle;
+    const double speed = p.tip_speed_max + p.body_speed_max;
+    const double cfl = p.dt * speed / p.h_actual;
+    if (cfl > 1.0)
+      p.warnings.push_back(fmt::format("steps_per_cycle = {}: the wingtip moves {:.2f} fine cells per step (CFL "
+                                       "estimate {:.2f} > 1); the run may diverge", p.steps_per_cycle, cfl, cfl));
+  }
+  return p;
+}
+
+}  // namespace flapstab::ns

@@ -1,0 +1,53 @@
+// The plan of a CFD run: grid around the volume the insect sweeps, far field, Reynolds number, time step; every
+// check that needs no solver (docs/case-file.md, [aero.cfd]).
+//
+//  - Grid in stability axes S, origin O. The uniform fine box (spacing h = mean chord / cells_per_chord or
+//    R / cells_per_wing_length) covers the volume swept by body and wings over the whole run (sampled at 64
+//    phases per wingbeat) plus fine_margin_R; outside it the cells grow geometrically (stretch_ratio) out to the
+//    domain faces, upstream_R ... below_R wing lengths beyond the fine box.
+//  - Reynolds number Re = U_ref L_ref / nu with U_ref = 2 Phi f R (mean wingtip speed), L_ref = mean chord; the
+//    kinematic viscosity is [fluid] kinematic_viscosity_m2_s unless [aero.cfd] reynolds sets it to U_ref L_ref / Re.
+#pragma once
+#include <string>
+#include <vector>
+#include "cfd/navier_stokes/geometry.hpp"
+#include "cfd/navier_stokes/grid.hpp"
+#include "core/aero_model.hpp"
+#include "core/case_file.hpp"
+
+namespace flapstab::ns {
+
+// Everything decided before the run starts.
+struct CfdPlan {
+  Vec3 swept_lo = Vec3::Zero(), swept_hi = Vec3::Zero();  // swept volume of the parts over the run (S, m)
+  Vec3 fine_lo = Vec3::Zero(), fine_hi = Vec3::Zero();    // uniform fine box (m)
+  Vec3 domain_lo = Vec3::Zero(), domain_hi = Vec3::Zero();
+  std::vector<StretchedAxis> axes;                         // the three axis generators
+  double h = 0;                   // requested fine spacing (m)
+  double h_actual = 0;            // largest cell width inside the fine box (m)
+  double chord_cells = 0;         // mean chord / h_actual
+  double rho = 0, nu = 0;         // kg/m^3, m^2/s
+  double u_ref = 0, l_ref = 0, reynolds = 0;
+  double period = 0;              // s
+  double tip_speed_max = 0;       // largest wingtip speed over the cycle (m/s), for the CFL check of a fixed dt
+  double body_speed_max = 0;      // largest |V| of the planned body motions (m/s)
+  int cycles = 1;
+  int steps_per_cycle = 0;        // 0: adaptive dt
+  double dt = 0;                  // fixed dt (s) or 0
+  std::vector<std::string> warnings;
+};
+
+// Builds the plan; InputError (case file, aero.cfd.KEY) for a part too close to the domain's faces or a mean
+// chord resolved by fewer than 4 fine cells (fewer than 8: a warning in plan.warnings).
+CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, int cycles_override = 0);
+// One grid for several runs (a derivative campaign restarted from one hover state): the swept volume is the union
+// over the motions, each run `cycles_override` (or [aero.cfd] cycles) wingbeats long.
+CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMotion>& motions, int cycles_override = 0);
+
+// The plan's grid.
+Grid plan_grid(const CfdPlan& plan);
+// Cells and extents of a grid, exactly (checkpoints compare it).
+std::string grid_summary(const Grid& g);
+MeshResolution mesh_resolution(const CfdSettings& s);
+
+}  // namespace flapstab::ns

@@ -1,0 +1,242 @@
+// The stepping CFD simulation (simulation.hpp).
+#include "cfd/navier_stokes/simulation.hpp"
+
+#include <cmath>
+#include <optional>
+#include <fmt/format.h>
+#include <omp.h>
+
+#include "cfd/navier_stokes/geometry.hpp"
+#include "cfd/navier_stokes/insect_motion.hpp"
+#include "core/configuration.hpp"
+
+namespace flapstab::ns {
+
+namespace {
+
+// The RK3 scheme with central fluxes is stable to CFL sqrt(3).
+constexpr double rk3_cfl_limit = 1.7320508075688772;
+
+Boundaries far_field(const BodyMotion& motion) {
+  Boundaries bc;
+  const Vec3 stream = -motion.velocity;
+  for (int f = 0; f < 6; ++f) {
+    bc.face[std::size_t(f)].type = BC::velocity;
+    if (stream.norm() > 0) bc.face[std::size_t(f)].velocity = [stream](double) { return stream; };
+  }
+  bc.face[std::size_t(face(2, 1))] = FaceCondition{BC::outflow, {}};
+  return bc;
+}
+
+SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan) {
+  SolverOptions so;
+  so.nu = plan.nu;
+  so.cfl = s.cfl;
+  so.dt = plan.dt;
+  const double speed = plan.tip_speed_max + plan.body_speed_max;
+  so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
+  return so;
+}
+
+}  // namespace
+
+struct Simulation::Impl : StageHooks {
+  Configuration config;
+  InsectMotion motion;
+  Solver solver;
+  std::optional<ImmersedBoundary> ib;
+  bool exchange = false;
+  CfdLoadRow row;
+  bool have_row = false;
+
+  Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
+      : config(c.insect, kin), motion(config, m, o.motion_start),
+        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan)) {
+    const Vec3 stream = -m.velocity;
+    if (o.initial_velocity) solver.initialise([&](double x, double y, double z) { return o.initial_velocity(x, y, z); });
+    else solver.initialise([stream](double, double, double) { return stream; });
+    if (o.bodies) {
+      const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
+      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho});
+      const auto start = motion.parts(o.motion_start);
+      for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
+      exchange = c.aero.cfd.loads == "exchange";
+      attach();
+    }
+  }
+  // Places the parts at the solver's time, marks the flags and routes the solver's stages through this.
+  void attach() {
+    ib->set_parts(solver.time(), motion.parts(solver.time()));
+    ib->attach(solver);
+    solver.attach(this);
+  }
+  void after_predictor(VectorField& ustar, double t, double alpha_dt) override {
+    ib->set_parts(t, motion.parts(t));
+    ib->after_predictor(ustar, t, alpha_dt);
+  }
+  void after_projection(VectorField& u, Field& p, double t) override { ib->after_projection(u, p, t); }
+
+  CfdLoadRow compute_row(double period, long step) const {
+    CfdLoadRow r;
+    const double tb = solver.time();
+    r.time = tb;
+    r.step = step;
+    r.phase = tb / period - std::floor(tb / period + 1e-12);
+    if (r.phase < 0) r.phase = 0;
+    if (!ib) return r;
+    const auto loads = exchange ? ib->exchange_loads(solver, Vec3::Zero()) : ib->loads(solver, Vec3::Zero());
+    const Mat3 Rt = motion.body_rotation(tb).rotation.transpose();
+    const auto rel = motion.relative(tb);
+    for (int i = 0; i < 3; ++i) {
+      const PartLoads& L = loads[std::size_t(i)];
+      auto& q = r.part[i];
+      q.pressure_force = Rt * L.pressure_force;
+      q.viscous_force = Rt * L.viscous_force;
+      q.pressure_moment = Rt * L.pressure_moment;
+      q.viscous_moment = Rt * L.viscous_moment;
+      q.power = L.power;
+      if (i > 0) {  // wing's work through its motion relative to the body: -(F . v_c + M_c . omega)
+        const RigidVelocity& g = rel[std::size_t(i)];
+        const Vec3 F = L.force(), Mc = L.moment() - g.centre.cross(F);
+        r.wing_power += -(F.dot(g.velocity) + Mc.dot(g.omega));
+      }
+    }
+    return r;
+  }
+};
+
+Simulation::Simulation(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdPlan& plan,
+                       SimulationOptions options)
+    : case_(c), kin_(kin), motion_(motion), plan_(plan) {
+  if (c.aero.cfd.threads > 0) omp_set_num_threads(c.aero.cfd.threads);
+  impl_ = std::make_unique<Impl>(case_, kin_, motion_, plan_, options);
+}
+
+Simulation::~Simulation() = default;
+
+const Grid& Simulation::grid() const { return impl_->solver.grid(); }
+const Solver& Simulation::solver() const { return impl_->solver; }
+double Simulation::time() const { return impl_->solver.time(); }
+std::size_t Simulation::cells() const { return grid().cells(); }
+std::size_t Simulation::bytes() const { return impl_->solver.bytes() + (impl_->ib ? impl_->ib->bytes() : 0); }
+bool Simulation::has_bodies() const { return impl_->ib.has_value(); }
+
+void Simulation::restore(const SimulationState& s, const Vec3& stream_shift) {
+  const Shape sh = grid().shape();
+  if (!(s.u[0].shape() == sh))
+    throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
+  Impl& m = *impl_;
+  m.solver.attach(nullptr);
+  if (stream_shift.norm() > 0) {
+    VectorField u = s.u;
+    for (int d = 0; d < 3; ++d) {
+      real* a = u[d].data();
+      for (std::size_t n = 0; n < sh.size(); ++n) a[n] += real(stream_shift[d]);
+    }
+    m.solver.restore(s.time, u, s.p, s.phi, s.guess);
+  } else {
+    m.solver.restore(s.time, s.u, s.p, s.phi, s.guess);
+  }
+  if (m.ib) m.attach();
+  step_ = s.step;
+  dt_last_ = s.dt_last;
+  m.have_row = false;
+}
+
+SimulationState Simulation::state() const {
+  const Solver& sv = impl_->solver;
+  SimulationState s;
+  s.time = sv.time();
+  s.step = step_;
+  s.dt_last = dt_last_;
+  s.u = sv.velocity();
+  s.p = sv.pressure();
+  s.phi = sv.pressure_increments();
+  s.guess = sv.has_guess();
+  return s;
+}
+
+StepReport Simulation::advance() {
+  Impl& m = *impl_;
+  StepReport r;
+  r.t_before = m.solver.time();
+  try {
+    r.dt = m.solver.step();
+  } catch (const std::exception& e) {
+    throw StepFailure(step_ + 1, r.t_before, e.what());
+  }
+  ++step_;
+  dt_last_ = r.dt;
+  r.step = step_;
+  r.time = m.solver.time();
+  r.row = m.compute_row(plan_.period, step_);
+  bool finite = std::isfinite(m.solver.kinetic_energy()) && std::isfinite(r.row.wing_power);
+  for (const auto& q : r.row.part)
+    finite = finite && q.pressure_force.allFinite() && q.viscous_force.allFinite() && q.pressure_moment.allFinite() &&
+             q.viscous_moment.allFinite() && std::isfinite(q.power);
+  if (!finite) throw StepFailure(step_, r.time, "the solution or the loads are not finite");
+  r.cfl = m.solver.cfl(r.dt);
+  if (!(r.cfl <= rk3_cfl_limit))
+    throw StepFailure(step_, r.time, fmt::format("CFL {:.3g} above the RK3 limit 1.73 (the flow blew up)", r.cfl));
+  m.row = r.row;
+  m.have_row = true;
+  return r;
+}
+
+CfdLoadRow Simulation::loads() const { return impl_->have_row ? impl_->row : impl_->compute_row(plan_.period, step_); }
+
+TriangleMesh Simulation::surface(int part) const {
+  if (!impl_->ib) throw std::logic_error("Simulation::surface: a body-free simulation");
+  return impl_->ib->surface(part, time());
+}
+
+SurfacePressure Simulation::surface_pressure(int part) const {
+  if (!impl_->ib) throw std::logic_error("Simulation::surface_pressure: a body-free simulation");
+  return impl_->ib->surface_pressure(impl_->solver, part);
+}
+
+// ---- state files -----------------------------------------------------------------------------------------------
+
+void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,
+                 std::map<std::string, std::string> text) {
+  const Shape sh = s.p.shape();
+  CheckpointHeader h;
+  h.time = s.time;
+  h.step = s.step;
+  h.values = std::move(values);
+  h.values["dt"] = s.dt_last;
+  h.values["guess"] = s.guess ? 1.0 : 0.0;
+  h.text = std::move(text);
+  std::vector<CheckpointArray> arrays;
+  const std::vector<std::size_t> shape = {std::size_t(sh.nz + 2), std::size_t(sh.ny + 2), std::size_t(sh.nx + 2)};
+  for (int d = 0; d < 3; ++d)
+    arrays.push_back({fmt::format("u{}", d), std::span<const double>(s.u[d].data(), sh.size()), shape});
+  arrays.push_back({"p", std::span<const double>(s.p.data(), sh.size()), shape});
+  for (int d = 0; d < 3; ++d)
+    arrays.push_back({fmt::format("phi{}", d), std::span<const double>(s.phi[d].data(), sh.size()), shape});
+  write_checkpoint(path, h, arrays);
+}
+
+SimulationState read_state(const CheckpointReader& ck, const Shape& sh) {
+  for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"})
+    if (!ck.contains(name)) throw InputError(ck.path(), name, "missing array", "a checkpoint of flapstab cfd");
+  if (!ck.header().values.count("guess"))
+    throw InputError(ck.path(), "guess", "missing value", "a checkpoint of flapstab cfd");
+  SimulationState s;
+  s.u = VectorField(sh);
+  s.phi = VectorField(sh);
+  s.p = Field(sh);
+  for (int d = 0; d < 3; ++d) {
+    ck.read(fmt::format("u{}", d), std::span<double>(s.u[d].data(), sh.size()));
+    ck.read(fmt::format("phi{}", d), std::span<double>(s.phi[d].data(), sh.size()));
+  }
+  ck.read("p", std::span<double>(s.p.data(), sh.size()));
+  s.time = ck.header().time;
+  s.step = long(ck.header().step);
+  s.guess = ck.header().values.at("guess") != 0;
+  const auto dt = ck.header().values.find("dt");
+  s.dt_last = dt != ck.header().values.end() ? dt->second : 0;
+  return s;
+}
+
+}  // namespace flapstab::ns

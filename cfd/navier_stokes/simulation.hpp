@@ -1,0 +1,120 @@
+// The CFD run as a stepping simulation: planned, restored from a state, advanced one step at a time, observed.
+//
+//   Simulation sim(case, kin, motion, plan);      // grid, boundaries, solver, the insect's three immersed parts
+//   sim.restore(state);                           // optional: an exact continuation (checkpoint, kept hover state)
+//   while (...) { StepReport r = sim.advance(); } // one RK3 step, the loads of every part, finiteness/CFL checks
+//
+// Far field: the body's steady velocity V = (u, v, w) enters as a uniform stream -V through five faces
+// (prescribed velocity; zero in hover: quiescent air at rest); the face below the insect (+z) is a zero-gradient
+// outflow with p = 0, where the downwash leaves. Rotation rates Omega turn the whole insect about O in the grid
+// (InsectMotion); loads are reported in the turning body's stability axes, moments about O.
+//
+// The parts' kinematics (pose, velocity, acceleration) are handed to the immersed boundary as values at every
+// Runge-Kutta stage time (ImmersedBoundary::set_parts): InsectMotion computes them here; a free-flight driver
+// can replace it (set_motion).
+#pragma once
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+#include "cfd/navier_stokes/forces_csv.hpp"
+#include "cfd/navier_stokes/immersed.hpp"
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/plan.hpp"
+#include "cfd/navier_stokes/solver.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::ns {
+
+struct SimulationOptions {
+  bool bodies = true;  // false: a body-free flow in the same box (solver checks, tests)
+  std::function<Vec3(double x, double y, double z)> initial_velocity;  // default: the uniform stream -V
+  double motion_start = 0;  // t_start of the body rotation (a run restored at t0 rotates from t0)
+};
+
+// Everything a step depends on (one checkpoint schema): restoring it continues the run bit for bit.
+struct SimulationState {
+  double time = 0;   // s
+  long step = 0;
+  double dt_last = 0;  // s
+  VectorField u, phi;  // face velocity (m/s), the last step's pressure increments (the Poisson initial guesses)
+  Field p;             // kinematic pressure (m^2/s^2)
+  bool guess = false;
+};
+
+// What one step did.
+struct StepReport {
+  long step = 0;              // the step counter after the step
+  double t_before = 0, time = 0, dt = 0;
+  double cfl = 0;
+  CfdLoadRow row;             // loads at `time`
+};
+
+// A step that failed: the solver threw, the loads or the solution are not finite, or the CFL number passed the
+// RK3 limit.
+class StepFailure : public SolveError {
+ public:
+  StepFailure(long step, double time, std::string why)
+      : SolveError(why), step_(step), time_(time), why_(std::move(why)) {}
+  long step() const { return step_; }
+  double time() const { return time_; }
+  const std::string& why() const { return why_; }
+
+ private:
+  long step_;
+  double time_;
+  std::string why_;
+};
+
+class Simulation {
+ public:
+  Simulation(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdPlan& plan,
+             SimulationOptions options = {});
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // Restores a state (exact continuation). `stream_shift` is added to the velocity everywhere: a Galilean change
+  // of the far field, e.g. a hover state restarted in the uniform stream -V of a perturbed run.
+  void restore(const SimulationState& state, const Vec3& stream_shift = Vec3::Zero());
+  SimulationState state() const;
+  // One time step; throws StepFailure.
+  StepReport advance();
+
+  const Case& case_file() const { return case_; }
+  const Kinematics& kinematics() const { return kin_; }
+  const BodyMotion& motion() const { return motion_; }
+  const CfdPlan& plan() const { return plan_; }
+  const Grid& grid() const;
+  const Solver& solver() const;
+  long step() const { return step_; }
+  double time() const;
+  double last_dt() const { return dt_last_; }
+  std::size_t cells() const;
+  std::size_t bytes() const;  // solver + immersed boundary
+  bool has_bodies() const;
+  // The loads at the current time (the last step's row; before any step, computed).
+  CfdLoadRow loads() const;
+  // Surface of a part (0 body, 1 right, 2 left) at the current time, grid axes, and its pressure (Pa).
+  TriangleMesh surface(int part) const;
+  SurfacePressure surface_pressure(int part) const;
+
+ private:
+  struct Impl;
+  Case case_;
+  Kinematics kin_;
+  BodyMotion motion_;
+  CfdPlan plan_;
+  std::unique_ptr<Impl> impl_;
+  long step_ = 0;
+  double dt_last_ = 0;
+};
+
+// Checkpoint files of a simulation state (HDF5, docs/cfd-files.md): arrays u0 u1 u2 p phi0 phi1 phi2 bit for bit,
+// header time, step, dt, guess plus the given values and texts.
+void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,
+                 std::map<std::string, std::string> text);
+// InputError naming the file and array for a checkpoint without the state or of another grid shape.
+SimulationState read_state(const CheckpointReader& ck, const Shape& shape);
+
+}  // namespace flapstab::ns
