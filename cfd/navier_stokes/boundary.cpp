@@ -2,6 +2,7 @@
 // that edge and corner ghosts are consistent).
 #include "cfd/navier_stokes/boundary.hpp"
 #include "cfd/navier_stokes/stencil.hpp"
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -16,6 +17,36 @@ void for_each_line(const Shape& s, int axis, F&& f) {
   const std::ptrdiff_t sb = s.stride(b), sc = s.stride(c), sa = s.stride(axis);
   for (int kc = 0; kc <= s.n(c) + 1; ++kc)
     for (int kb = 0; kb <= s.n(b) + 1; ++kb) f(kb * sb + kc * sc, sa, s.n(axis));
+}
+
+// The same with the line's indices along the other two axes.
+template <class F>
+void for_each_line_at(const Shape& s, int axis, F&& f) {
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  const std::ptrdiff_t sb = s.stride(b), sc = s.stride(c), sa = s.stride(axis);
+  for (int kc = 0; kc <= s.n(c) + 1; ++kc)
+    for (int kb = 0; kb <= s.n(b) + 1; ++kb) f(kb * sb + kc * sc, sa, s.n(axis), kb, kc);
+}
+
+// Position on the boundary face (side 0: lower, 1: upper) of `axis` for component d on the line (kb, kc): the
+// face coordinate along axis, and component d's staggered location along the other two.
+Vec3 wall_point(const Grid& g, int axis, int side, int d, int kb, int kc) {
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  const Axis& A = g.axis[std::size_t(axis)];
+  Vec3 x;
+  x[axis] = side == 0 ? A.xf[1] : A.xf[std::size_t(A.n + 1)];
+  auto along = [&](int e, int k) {
+    const Axis& E = g.axis[std::size_t(e)];
+    const int kk = std::clamp(k, 0, E.n + 1);
+    return e == d ? E.xf[std::size_t(std::max(kk, 1))] : E.xc[std::size_t(kk)];
+  };
+  x[b] = along(b, kb);
+  x[c] = along(c, kc);
+  return x;
+}
+
+void need_grid(const FaceCondition& f, const Grid* g) {
+  if (f.field && !g) throw std::invalid_argument("navier_stokes boundaries: a face velocity field needs the grid");
 }
 
 const char* name(int f) {
@@ -55,7 +86,7 @@ void Boundaries::check(const Grid& g) const {
 
 void fill_ghosts(Field& p, const ScalarBCs& bc) { fill_scalar_ghosts(p.shape(), p.data(), bc); }
 
-void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t) {
+void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t, const Grid* grid) {
   for (int a = 0; a < 3; ++a) {
     if (bc.periodic(a)) {  // face n+1 is face 1
       real* q = u[a].data();
@@ -65,6 +96,18 @@ void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t) {
     const FaceCondition &lo = bc.face[face(a, 0)], &hi = bc.face[face(a, 1)];
     const real ulo = lo.at(t)[a], uhi = hi.at(t)[a];
     real* q = u[a].data();
+    if (lo.field || hi.field) {
+      need_grid(lo, grid);
+      need_grid(hi, grid);
+      for_each_line_at(u[a].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n, int kb, int kc) {
+        real* l = q + o;
+        l[s] = lo.type != BC::velocity ? l[2 * s] : lo.field ? real(lo.at(t, wall_point(*grid, a, 0, a, kb, kc))[a]) : ulo;
+        l[(n + 1) * s] = hi.type != BC::velocity ? l[n * s]
+                         : hi.field              ? real(hi.at(t, wall_point(*grid, a, 1, a, kb, kc))[a])
+                                                 : uhi;
+      });
+      continue;
+    }
     for_each_line(u[a].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n) {
       real* l = q + o;
       l[s] = lo.type == BC::velocity ? ulo : l[2 * s];
@@ -73,12 +116,24 @@ void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t) {
   }
 }
 
-void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t) {
+void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t, const Grid* grid) {
   for (int a = 0; a < 3; ++a) {
     const FaceCondition &lo = bc.face[face(a, 0)], &hi = bc.face[face(a, 1)];
     const Vec3 Ulo = lo.at(t), Uhi = hi.at(t);
     for (int d = 0; d < 3; ++d) {
       real* q = u[d].data();
+      if ((lo.field || hi.field) && d != a) {  // tangential ghosts mirror the wall value at the wall point
+        need_grid(lo, grid);
+        need_grid(hi, grid);
+        for_each_line_at(u[d].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n, int kb, int kc) {
+          real* l = q + o;
+          const double wl = lo.field ? lo.at(t, wall_point(*grid, a, 0, d, kb, kc))[d] : Ulo[d];
+          const double wh = hi.field ? hi.at(t, wall_point(*grid, a, 1, d, kb, kc))[d] : Uhi[d];
+          l[0] = lo.type == BC::velocity ? real(2 * wl) - l[s] : l[s];
+          l[(n + 1) * s] = hi.type == BC::velocity ? real(2 * wh) - l[n * s] : l[n * s];
+        });
+        continue;
+      }
       for_each_line(u[d].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n) {
         real* l = q + o;
         if (lo.type == BC::periodic) {

@@ -22,7 +22,11 @@ constexpr int face(int axis, int side) { return 2 * axis + side; }  // side 0: l
 struct FaceCondition {
   BC type = BC::velocity;
   std::function<Vec3(double t)> velocity;  // BC::velocity only; empty means at rest
+  // BC::velocity only: a velocity that varies over the face (e.g. the far field -V - Omega x r seen from a
+  // rotating body frame); when set it replaces `velocity`, and the ghost filling needs the grid.
+  std::function<Vec3(double t, const Vec3& x)> field;
   Vec3 at(double t) const { return velocity ? velocity(t) : Vec3::Zero(); }
+  Vec3 at(double t, const Vec3& x) const { return field ? field(t, x) : at(t); }
 };
 
 // Conditions of faces x-, x+, y-, y+, z-, z+ (index face(axis, side)).
@@ -41,10 +45,11 @@ void fill_ghosts(Field& p, const ScalarBCs& bc);
 
 // Boundary faces of the normal components at time t: prescribed, copied from the first interior face
 // (outflow) or the periodic image. Called on the predicted velocity before projection.
-void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t);
+// Faces with a `field` need the grid (std::invalid_argument without it).
+void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t, const Grid* grid = nullptr);
 
 // Ghost values of every component at time t: periodic images, tangential wall values by the mirror
 // 2 U - u, zero gradient at an outflow. Called after projection so stencils see BC-consistent data.
-void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t);
+void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t, const Grid* grid = nullptr);
 
 }  // namespace flapstab::ns

@@ -38,10 +38,15 @@ struct PartState {
   RigidVelocity velocity;  // rigid velocity of the part's points, grid axes (m/s, rad/s)
   Vec3 acceleration = Vec3::Zero();          // of the material point at velocity.centre (m/s^2)
   Vec3 angular_acceleration = Vec3::Zero();  // rad/s^2
-  // Acceleration of the material point at x (rigid body: a + alpha x r + omega x (omega x r), r = x - centre).
+  // Rate of the grid's frame (rad/s) when it rotates (SolverOptions::frame_rate): the apparent acceleration of a
+  // point then carries the Coriolis term 2 Omega x v (the centrifugal one sits in the reduced pressure).
+  Vec3 frame_rate = Vec3::Zero();
+  // Apparent acceleration of the material point at x in the grid's frame: a + alpha x r + omega x (omega x r)
+  // (rigid body, r = x - centre) + 2 Omega x v(x).
   Vec3 acceleration_at(const Vec3& x) const {
     const Vec3 r = x - velocity.centre;
-    return acceleration + angular_acceleration.cross(r) + velocity.omega.cross(velocity.omega.cross(r));
+    return acceleration + angular_acceleration.cross(r) + velocity.omega.cross(velocity.omega.cross(r)) +
+           2 * frame_rate.cross(velocity.at(x));
   }
 };
 // A prescribed motion as a function of time (pose and velocity; the accelerations are taken by central

@@ -1,11 +1,13 @@
-// The insect's prescribed motion in the CFD grid: the wing kinematics composed with a steady body motion, as the
-// kinematics values (pose, velocity, acceleration) the immersed boundary takes at each Runge-Kutta stage.
+// The insect's prescribed motion in the CFD grid: the wing kinematics relative to the body, as the kinematics
+// values (pose, velocity, acceleration) the immersed boundary takes at each Runge-Kutta stage.
 //
-// The grid's axes are the hover stability axes S at the start of the motion, origin O. A steady body velocity V
-// enters as the uniform stream -V through the far field (the insect does not translate in the grid); steady rates
-// Omega turn the whole insect about O: body rotation B(t) = exp([Omega] (t - t_start)). The accelerations are
-// analytic: a wing's angular acceleration is B w_dot + Omega x (B w) (w, w_dot relative to the body, from the
-// kinematics), and points fixed in the body accelerate centripetally, Omega x (Omega x x).
+// The grid is fixed to the body: its axes are the body's stability axes S, origin O. A steady body motion
+// (velocity V, rates Omega; the u, v, w, p, q, r of the literature) is seen from that frame: the still air far away
+// moves at -V - Omega x r, and with Omega != 0 the frame rotates, so the momentum equation carries the Coriolis
+// acceleration and the pressure is the reduced one (SolverOptions::frame_rate). Body and wings then move in the
+// grid only by the kinematics, over the same swept volume for every motion: one grid serves the hover and all its
+// perturbations. Accelerations are analytic (the wings' w_dot from the kinematics); the parts' apparent
+// accelerations add the Coriolis term 2 Omega x v (PartState::frame_rate).
 #pragma once
 #include <array>
 #include <vector>
@@ -19,22 +21,16 @@ namespace flapstab::ns {
 class InsectMotion {
  public:
   // `config` must outlive this.
-  InsectMotion(const Configuration& config, const BodyMotion& motion, double t_start = 0)
-      : config_(&config), motion_(motion), t_start_(t_start) {}
+  InsectMotion(const Configuration& config, const BodyMotion& motion) : config_(&config), motion_(motion) {}
   const BodyMotion& body_motion() const { return motion_; }
-  double start() const { return t_start_; }
-  // B(t): the whole insect's rotation about O.
-  RigidTransform body_rotation(double t) const;
-  // Body, right wing, left wing in grid axes at time t.
+  // Body, right wing, left wing in grid (= body) axes at time t, velocities relative to the grid.
   std::vector<PartState> parts(double t) const;
-  // Each part's motion relative to the body, expressed in grid axes (centre, velocity and rates), for the wings'
-  // work through their motion relative to the body.
-  std::array<RigidVelocity, 3> relative(double t) const;
+  // Velocity of the still air far away, seen from the grid: -V - Omega x x.
+  Vec3 far_field(const Vec3& x) const { return -motion_.velocity - motion_.rate.cross(x); }
 
  private:
   const Configuration* config_;
   BodyMotion motion_;
-  double t_start_;
 };
 
 }  // namespace flapstab::ns

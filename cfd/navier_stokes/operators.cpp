@@ -161,6 +161,42 @@ void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& N
   for (int k = 1; k <= s.nz; ++k) predict_plane(s, k, a);
 }
 
+void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, VectorField& ustar, const Vec3& omega,
+                  double dt, const StageCoefficients& c) {
+  const Shape s = g.shape();
+  const real gdt = real(c.gamma * dt);
+  for (int d = 0; d < 3; ++d) {
+    const int e1 = (d + 1) % 3, e2 = (d + 2) % 3;
+    const std::ptrdiff_t sd = s.stride(d), s1 = s.stride(e1), s2 = s.stride(e2);
+    // (-2 omega x u)_d = -2 (omega_e1 u_e2 - omega_e2 u_e1)
+    const real w1 = real(-2 * omega[e1]), w2 = real(-2 * omega[e2]);
+    const real* u1 = u[e1].data();
+    const real* u2 = u[e2].data();
+    real* N = Nprev[d].data();
+    real* us = ustar[d].data();
+    int hi[3] = {s.nx, s.ny, s.nz};
+    if (!g.axis[std::size_t(d)].periodic) hi[d] += 1;
+    const Axis& A = g.axis[std::size_t(d)];
+#pragma omp parallel for schedule(static) if (threaded(s))
+    for (int k = 1; k <= hi[2]; ++k)
+      for (int j = 1; j <= hi[1]; ++j)
+        for (int i = 1; i <= hi[0]; ++i) {
+          const std::ptrdiff_t m = s(i, j, k);
+          // u_e at this d-face: along e the mean of the two faces of each cell (the centre is their midpoint),
+          // along d linear between the two cells' centres (exact for a linear field on a stretched grid).
+          const int I[3] = {i, j, k};
+          const int id = I[d];
+          const double den = A.xc[std::size_t(id)] - A.xc[std::size_t(id - 1)];
+          const real w = den > 0 ? real((A.xf[std::size_t(id)] - A.xc[std::size_t(id - 1)]) / den) : real(0.5);
+          const real a1 = real(0.5) * ((1 - w) * (u1[m - sd] + u1[m - sd + s1]) + w * (u1[m] + u1[m + s1]));
+          const real a2 = real(0.5) * ((1 - w) * (u2[m - sd] + u2[m - sd + s2]) + w * (u2[m] + u2[m + s2]));
+          const real C = w1 * a2 - w2 * a1;
+          us[m] += gdt * C;
+          N[m] += C;
+        }
+  }
+}
+
 void divergence(const Grid& g, const VectorField& u, Field& div, double scale) {
 #pragma omp parallel for schedule(static) if (threaded(div.shape()))
   for (int k = 1; k <= div.shape().nz; ++k) divergence_plane(g, k, u, div, real(scale));

@@ -18,6 +18,12 @@ struct StageCoefficients {
 void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& Nprev, VectorField& ustar, double nu,
              double dt, const StageCoefficients& c);
 
+// The Coriolis acceleration of a frame rotating at omega (rad/s), C = -2 omega x u, on every interior face (the
+// other components averaged from their four nearest faces): ustar += gamma dt C(u) and Nprev += C(u), so the next
+// stage's zeta term carries it as part of N. Call after predict with the same u and coefficients.
+void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, VectorField& ustar, const Vec3& omega,
+                  double dt, const StageCoefficients& c);
+
 // div = scale * D u on the cells.
 void divergence(const Grid& g, const VectorField& u, Field& div, double scale);
 

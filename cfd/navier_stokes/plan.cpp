@@ -60,24 +60,20 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMot
   const Configuration config(c.insect, kin);
   const InsectSurfaces surfaces(config, mesh_resolution(s));
   const auto& ref = surfaces.reference();
+  // Swept volume: every vertex of every part over one wingbeat (the grid is fixed to the body, so body motions
+  // do not move the insect in it).
   BoundingBox box;
-  for (const BodyMotion& motion : motions) {
-    const InsectMotion im(config, motion);
-    p.body_speed_max = std::max(p.body_speed_max, motion.velocity.norm());
-    const bool rotating = motion.rate.norm() > 0;
-    const int samples = rotating ? std::min(64 * p.cycles, 1024) : 64;
-    const double span = rotating ? p.cycles * p.period : p.period;
-    for (int k = 0; k <= samples; ++k) {
-      const double t = span * k / samples;
-      const auto parts = im.parts(t);
-      const auto rel = im.relative(t);
-      for (int i = 0; i < 3; ++i)
-        for (const Vec3& v : ref[std::size_t(i)].vertices) {
-          const Vec3 x = parts[std::size_t(i)].pose.apply(v);
-          box.add(x);
-          if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, rel[std::size_t(i)].at(x).norm());
-        }
-    }
+  const InsectMotion im(config, BodyMotion{});
+  constexpr int samples = 64;
+  for (int k = 0; k <= samples; ++k) {
+    const double t = p.period * k / samples;
+    const auto parts = im.parts(t);
+    for (int i = 0; i < 3; ++i)
+      for (const Vec3& v : ref[std::size_t(i)].vertices) {
+        const Vec3 x = parts[std::size_t(i)].pose.apply(v);
+        box.add(x);
+        if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, parts[std::size_t(i)].velocity.at(x).norm());
+      }
   }
   p.swept_lo = box.lo;
   p.swept_hi = box.hi;
@@ -102,6 +98,14 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMot
     a.max_ratio = s.stretch_ratio;
     a.multiple_of = 8;
     p.axes.push_back(a);
+  }
+  // Largest far-field speed over the planned motions (|V| plus |Omega| times the farthest swept point).
+  for (const BodyMotion& motion : motions) {
+    double r = 0;
+    for (int c = 0; c < 8; ++c)
+      r = std::max(r, Vec3(c & 1 ? box.hi.x() : box.lo.x(), c & 2 ? box.hi.y() : box.lo.y(),
+                           c & 4 ? box.hi.z() : box.lo.z()).norm());
+    p.body_speed_max = std::max(p.body_speed_max, motion.velocity.norm() + motion.rate.norm() * r);
   }
   // The immersed boundary's forcing band and probes reach about 4 fine cells beyond a surface: every part must
   // stay that far from the box faces over the whole run.

@@ -30,7 +30,7 @@ struct CfdPlan {
   double u_ref = 0, l_ref = 0, reynolds = 0;
   double period = 0;              // s
   double tip_speed_max = 0;       // largest wingtip speed over the cycle (m/s), for the CFL check of a fixed dt
-  double body_speed_max = 0;      // largest |V| of the planned body motions (m/s)
+  double body_speed_max = 0;      // largest far-field speed |V| + |Omega| r of the planned motions (m/s)
   int cycles = 1;
   int steps_per_cycle = 0;        // 0: adaptive dt
   double dt = 0;                  // fixed dt (s) or 0
@@ -40,8 +40,8 @@ struct CfdPlan {
 // Builds the plan; InputError (case file, aero.cfd.KEY) for a part too close to the domain's faces or a mean
 // chord resolved by fewer than 4 fine cells (fewer than 8: a warning in plan.warnings).
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, int cycles_override = 0);
-// One grid for several runs (a derivative campaign restarted from one hover state): the swept volume is the union
-// over the motions, each run `cycles_override` (or [aero.cfd] cycles) wingbeats long.
+// One grid for several runs (a derivative campaign restarted from one hover state): the grid is fixed to the body,
+// so it is the same for every motion; the CFL estimate of a fixed step takes the fastest far field of the motions.
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMotion>& motions, int cycles_override = 0);
 
 // The plan's grid.

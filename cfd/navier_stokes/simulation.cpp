@@ -17,22 +17,45 @@ namespace {
 // The RK3 scheme with central fluxes is stable to CFL sqrt(3).
 constexpr double rk3_cfl_limit = 1.7320508075688772;
 
+// The still air far away seen from the body's frame: the uniform stream -V, plus -Omega x r when it turns.
 Boundaries far_field(const BodyMotion& motion) {
   Boundaries bc;
-  const Vec3 stream = -motion.velocity;
+  const Vec3 stream = -motion.velocity, rate = motion.rate;
   for (int f = 0; f < 6; ++f) {
     bc.face[std::size_t(f)].type = BC::velocity;
     if (stream.norm() > 0) bc.face[std::size_t(f)].velocity = [stream](double) { return stream; };
+    if (rate.norm() > 0)
+      bc.face[std::size_t(f)].field = [stream, rate](double, const Vec3& x) { return Vec3(stream - rate.cross(x)); };
   }
-  bc.face[std::size_t(face(2, 1))] = FaceCondition{BC::outflow, {}};
+  bc.face[std::size_t(face(2, 1))] = FaceCondition{BC::outflow, {}, {}};
   return bc;
 }
 
-SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan) {
+// Volume, first and second moments (about the grid origin) of the solid a closed mesh bounds.
+struct VolumeMoments {
+  double volume = 0;
+  Vec3 first = Vec3::Zero();
+  Mat3 second = Mat3::Zero();
+};
+VolumeMoments volume_moments(const TriangleMesh& m) {
+  VolumeMoments v;
+  for (std::size_t t = 0; t < m.size(); ++t) {
+    const Vec3 a = m.vertex(t, 0), b = m.vertex(t, 1), c = m.vertex(t, 2);
+    const double det = a.dot(b.cross(c));  // 6 x the signed volume of the tetrahedron (0, a, b, c)
+    const Vec3 sum = a + b + c;
+    v.volume += det / 6;
+    v.first += det / 24 * sum;
+    v.second += det / 120 * (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose());
+  }
+  return v;
+}
+
+SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m) {
   SolverOptions so;
   so.nu = plan.nu;
   so.cfl = s.cfl;
   so.dt = plan.dt;
+  so.frame_rate = m.rate;
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
   return so;
@@ -49,16 +72,16 @@ struct Simulation::Impl : StageHooks {
   CfdLoadRow row;
   bool have_row = false;
 
+  double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
-      : config(c.insect, kin), motion(config, m, o.motion_start),
-        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan)) {
-    const Vec3 stream = -m.velocity;
+      : config(c.insect, kin), motion(config, m),
+        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m)), rho(plan.rho) {
     if (o.initial_velocity) solver.initialise([&](double x, double y, double z) { return o.initial_velocity(x, y, z); });
-    else solver.initialise([stream](double, double, double) { return stream; });
+    else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
       const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
       ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho});
-      const auto start = motion.parts(o.motion_start);
+      const auto start = motion.parts(0.0);
       for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
       exchange = c.aero.cfd.loads == "exchange";
       attach();
@@ -85,18 +108,29 @@ struct Simulation::Impl : StageHooks {
     if (r.phase < 0) r.phase = 0;
     if (!ib) return r;
     const auto loads = exchange ? ib->exchange_loads(solver, Vec3::Zero()) : ib->loads(solver, Vec3::Zero());
-    const Mat3 Rt = motion.body_rotation(tb).rotation.transpose();
-    const auto rel = motion.relative(tb);
+    const auto parts = motion.parts(tb);
+    const Vec3& W = motion.body_motion().rate;
     for (int i = 0; i < 3; ++i) {
       const PartLoads& L = loads[std::size_t(i)];
       auto& q = r.part[i];
-      q.pressure_force = Rt * L.pressure_force;
-      q.viscous_force = Rt * L.viscous_force;
-      q.pressure_moment = Rt * L.pressure_moment;
-      q.viscous_moment = Rt * L.viscous_moment;
+      q.pressure_force = L.pressure_force;
+      q.viscous_force = L.viscous_force;
+      q.pressure_moment = L.pressure_moment;
+      q.viscous_moment = L.viscous_moment;
       q.power = L.power;
+      if (W.squaredNorm() > 0) {
+        // In a turning frame the solver's pressure is the reduced one, P = p - rho |Omega x r|^2 / 2: on a closed
+        // part the centrifugal pressure adds rho int_V Omega x (Omega x r) dV to the force and rho (S Omega) x Omega
+        // to the moment about O (S = int_V r r^T dV). Membranes enclose no volume.
+        const TriangleMesh mesh = ib->surface(i, tb);
+        if (!mesh.membrane) {
+          const VolumeMoments v = volume_moments(mesh);
+          q.pressure_force += rho * W.cross(W.cross(v.first));
+          q.pressure_moment += rho * (v.second * W).cross(W);
+        }
+      }
       if (i > 0) {  // wing's work through its motion relative to the body: -(F . v_c + M_c . omega)
-        const RigidVelocity& g = rel[std::size_t(i)];
+        const RigidVelocity& g = parts[std::size_t(i)].velocity;
         const Vec3 F = L.force(), Mc = L.moment() - g.centre.cross(F);
         r.wing_power += -(F.dot(g.velocity) + Mc.dot(g.omega));
       }
@@ -121,18 +155,27 @@ std::size_t Simulation::cells() const { return grid().cells(); }
 std::size_t Simulation::bytes() const { return impl_->solver.bytes() + (impl_->ib ? impl_->ib->bytes() : 0); }
 bool Simulation::has_bodies() const { return impl_->ib.has_value(); }
 
-void Simulation::restore(const SimulationState& s, const Vec3& stream_shift) {
+void Simulation::restore(const SimulationState& s, const BodyMotion& state_motion) {
   const Shape sh = grid().shape();
   if (!(s.u[0].shape() == sh))
     throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
   Impl& m = *impl_;
   m.solver.attach(nullptr);
-  if (stream_shift.norm() > 0) {
+  const bool same = state_motion.velocity == motion_.velocity && state_motion.rate == motion_.rate;
+  if (!same) {
+    // The state's far field -V0 - Omega0 x r becomes this run's: add the difference everywhere (a linear field,
+    // divergence-free, so the restored velocity stays discretely divergence-free).
+    const InsectMotion from(m.config, state_motion);
     VectorField u = s.u;
-    for (int d = 0; d < 3; ++d) {
-      real* a = u[d].data();
-      for (std::size_t n = 0; n < sh.size(); ++n) a[n] += real(stream_shift[d]);
-    }
+    const Grid& g = grid();
+    for (int d = 0; d < 3; ++d)
+      for (int k = 0; k <= sh.nz + 1; ++k)
+        for (int j = 0; j <= sh.ny + 1; ++j)
+          for (int i = 0; i <= sh.nx + 1; ++i) {
+            const auto x = g.point(d, i, j, k);
+            const Vec3 X(x[0], x[1], x[2]);
+            u[d](i, j, k) += real((m.motion.far_field(X) - from.far_field(X))[d]);
+          }
     m.solver.restore(s.time, u, s.p, s.phi, s.guess);
   } else {
     m.solver.restore(s.time, s.u, s.p, s.phi, s.guess);

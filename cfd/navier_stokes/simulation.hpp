@@ -4,10 +4,11 @@
 //   sim.restore(state);                           // optional: an exact continuation (checkpoint, kept hover state)
 //   while (...) { StepReport r = sim.advance(); } // one RK3 step, the loads of every part, finiteness/CFL checks
 //
-// Far field: the body's steady velocity V = (u, v, w) enters as a uniform stream -V through five faces
-// (prescribed velocity; zero in hover: quiescent air at rest); the face below the insect (+z) is a zero-gradient
-// outflow with p = 0, where the downwash leaves. Rotation rates Omega turn the whole insect about O in the grid
-// (InsectMotion); loads are reported in the turning body's stability axes, moments about O.
+// The grid is fixed to the body (InsectMotion): its axes are the body's stability axes, origin O. Far field: the
+// still air seen from the body, -V - Omega x r, prescribed on five faces (zero in hover: quiescent air at rest);
+// the face below the insect (+z) is a zero-gradient outflow with p = 0, where the downwash leaves. With rates
+// Omega the frame turns: Coriolis acceleration in the momentum equation, reduced pressure (SolverOptions), and
+// the centrifugal pressure's load on closed parts added back. Loads in the body's stability axes, moments about O.
 //
 // The parts' kinematics (pose, velocity, acceleration) are handed to the immersed boundary as values at every
 // Runge-Kutta stage time (ImmersedBoundary::set_parts): InsectMotion computes them here; a free-flight driver
@@ -29,7 +30,6 @@ namespace flapstab::ns {
 struct SimulationOptions {
   bool bodies = true;  // false: a body-free flow in the same box (solver checks, tests)
   std::function<Vec3(double x, double y, double z)> initial_velocity;  // default: the uniform stream -V
-  double motion_start = 0;  // t_start of the body rotation (a run restored at t0 rotates from t0)
 };
 
 // Everything a step depends on (one checkpoint schema): restoring it continues the run bit for bit.
@@ -74,9 +74,11 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  // Restores a state (exact continuation). `stream_shift` is added to the velocity everywhere: a Galilean change
-  // of the far field, e.g. a hover state restarted in the uniform stream -V of a perturbed run.
-  void restore(const SimulationState& state, const Vec3& stream_shift = Vec3::Zero());
+  // Restores a state (exact continuation when it was computed with this simulation's motion). A state of another
+  // body motion `state_motion` (e.g. the kept hover state for a perturbed run) gets this run's far field: the
+  // difference of the two far fields, -dV - dOmega x r, is added to the velocity everywhere.
+  void restore(const SimulationState& state, const BodyMotion& state_motion);
+  void restore(const SimulationState& state) { restore(state, motion_); }
   SimulationState state() const;
   // One time step; throws StepFailure.
   StepReport advance();

@@ -48,7 +48,7 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
         }
   fill_ghosts(p_, pbc_);
   t_ = t0;
-  impose_normal_velocity(ustar_, bc_, t_);
+  impose_normal_velocity(ustar_, bc_, t_, &grid_);
   divergence(grid_, ustar_, div_, 1.0);
   PoissonOptions popt = opt_.poisson;
   popt.rtol = std::min(popt.rtol, 1e-10);
@@ -56,7 +56,7 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   Field discard(grid_.shape());
   project(grid_, ustar_, phi_[0], u_, discard, 1.0);
   guess_ = false;
-  fill_velocity_ghosts(u_, bc_, t_);
+  fill_velocity_ghosts(u_, bc_, t_, &grid_);
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
 }
 
@@ -87,7 +87,8 @@ double Solver::time_step(double conv) const {
 void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   const double adt = c.alpha() * dt;
   predict(grid_, u_, p_, rhs_u_, ustar_, opt_.nu, dt, c);
-  impose_normal_velocity(ustar_, bc_, t_stage);
+  if (opt_.frame_rate.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, opt_.frame_rate, dt, c);
+  impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
   if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
   divergence(grid_, ustar_, div_, 1.0 / adt);
   // Besides the relative tolerance, stop at a divergence of 1e-12 of the velocity-gradient scale: no round-off chase.
@@ -100,7 +101,7 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
                              std::to_string(t_stage) + " (time step too large? CFL was " + std::to_string(cfl(dt)) + ")");
   project(grid_, ustar_, phi, u_, p_, adt);
   fill_ghosts(p_, pbc_);
-  fill_velocity_ghosts(u_, bc_, t_stage);
+  fill_velocity_ghosts(u_, bc_, t_stage, &grid_);
   if (hooks_) hooks_->after_projection(u_, p_, t_stage);
 }
 
@@ -131,7 +132,7 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   t_ = t;
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);  // the first RK3 stage does not read it (zeta_1 = 0)
   fill_ghosts(p_, pbc_);
-  fill_velocity_ghosts(u_, bc_, t_);
+  fill_velocity_ghosts(u_, bc_, t_, &grid_);
   if (hooks_) hooks_->after_projection(u_, p_, t_);
 }
 

@@ -17,6 +17,11 @@ struct SolverOptions {
   double dt = 0;           // > 0: fixed step (e.g. a whole number of steps per wingbeat) instead of the adaptive one
   double dt_max = std::numeric_limits<double>::infinity();  // cap of the adaptive step
   PoissonOptions poisson{.rtol = 1e-3};  // each projection removes all but 1e-3 of the predictor's divergence
+  // Rate of the grid's frame (rad/s): non-zero for a grid fixed to a body turning steadily. The momentum equation
+  // then carries the Coriolis acceleration -2 Omega x u; the centrifugal one, -Omega x (Omega x r) =
+  // grad(|Omega x r|^2 / 2), is absorbed in the pressure, which becomes the reduced pressure
+  // P = p - |Omega x r|^2 / 2 (kinematic). Boundary velocities are those seen in the rotating frame.
+  Vec3 frame_rate = Vec3::Zero();
 };
 
 // Per-cell state for an immersed boundary (all cells fluid until a body is immersed).

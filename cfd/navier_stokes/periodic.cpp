@@ -1,0 +1,53 @@
+// Periodic CFD runs (periodic.hpp).
+#include "cfd/navier_stokes/periodic.hpp"
+
+#include <chrono>
+#include <ostream>
+#include <fmt/format.h>
+
+namespace flapstab::ns {
+
+double cycle_change(const Wrench& a, const Wrench& b, const PeriodicSettings& s) {
+  return std::max((a.force - b.force).norm() / s.force_scale, (a.moment - b.moment).norm() / s.moment_scale);
+}
+
+PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label) {
+  const int n = sim.plan().steps_per_cycle;
+  if (n <= 0) throw SolveError("periodic CFD run: needs a fixed, phase-locked time step ([aero.cfd] steps_per_cycle)");
+  if (sim.step() % n != 0)
+    throw SolveError(fmt::format("periodic CFD run: the simulation is at step {}, not on a wingbeat boundary ({} steps "
+                                 "per wingbeat)", sim.step(), n));
+  const auto t0 = std::chrono::steady_clock::now();
+  PeriodicRun run;
+  for (int cycle = 1; cycle <= s.max_cycles; ++cycle) {
+    std::vector<CfdLoadRow> rows;
+    rows.reserve(std::size_t(n));
+    Wrench sum;
+    for (int k = 0; k < n; ++k) {
+      rows.push_back(sim.advance().row);
+      sum += rows.back().total();
+    }
+    CycleRecord rec;
+    rec.cycle = cycle;
+    rec.mean = Wrench{sum.force / n, sum.moment / n};
+    if (!run.cycles.empty()) rec.change = cycle_change(rec.mean, run.cycles.back().mean, s);
+    run.cycles.push_back(rec);
+    run.last_cycle = std::move(rows);
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (log)
+      *log << fmt::format("{}wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N, M = ({:+.4e}, {:+.4e}, {:+.4e}) N m, "
+                          "change {} ({:.0f} s)\n",
+                          label, cycle, rec.mean.force.x(), rec.mean.force.y(), rec.mean.force.z(), rec.mean.moment.x(),
+                          rec.mean.moment.y(), rec.mean.moment.z(),
+                          rec.change < 0 ? std::string("-") : fmt::format("{:.2e}", rec.change), secs)
+           << std::flush;
+    if (cycle >= s.min_cycles && rec.change >= 0 && rec.change < s.tolerance) {
+      run.converged = true;
+      break;
+    }
+  }
+  run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return run;
+}
+
+}  // namespace flapstab::ns
