@@ -320,6 +320,14 @@ CfdSettings parse_cfd(Section s) {
     if (d.reynolds > 1e7) s.fail("reynolds", fmt::format("out of range: {}", d.reynolds), "a Reynolds number in (0, 1e7]");
   }
   d.cycles = s.integer_or("cycles", d.cycles, 1, 100000);
+  auto tolerance = [&](const char* k, double dflt) {
+    const double v = s.number_or(k, dflt, "a fraction of the weight in (0, 1)");
+    if (!(v > 0 && v < 1)) s.fail(k, fmt::format("out of range: {}", v), "a fraction of the weight in (0, 1)");
+    return v;
+  };
+  d.hover_tolerance = tolerance("hover_tolerance", d.hover_tolerance);
+  d.perturbation_tolerance = tolerance("perturbation_tolerance", d.perturbation_tolerance);
+  d.max_cycles = s.integer_or("max_cycles", d.max_cycles, 2, 100000);
   if (s.has("steps_per_cycle") && s.has("cfl"))
     s.fail("cfl", "given together with 'steps_per_cycle'", "either a fixed step (steps_per_cycle) or a CFL number");
   d.steps_per_cycle = s.integer_or("steps_per_cycle", d.steps_per_cycle, 1, 100000000);

@@ -35,7 +35,14 @@ struct CfdSettings {
   double cells_per_wing_length = 0; // ... or, when > 0, h = R / this (the two are exclusive)
   double stretch_ratio = 1.05;      // geometric growth of the cell widths outside the fine box
   double reynolds = 0;              // > 0: viscosity set to U_ref L_ref / Re (U_ref = 2 Phi f R, L_ref = mean chord)
-  int cycles = 1;                   // wingbeats run
+  int cycles = 1;                   // wingbeats run (flapstab cfd); the least a hover from rest runs (AeroModel path)
+  // The AeroModel path (trim, derivatives, analyze): a hover run from rest until the cycle-to-cycle change of its
+  // mean loads is below hover_tolerance, then every perturbed run from that state until the change of its
+  // difference from the continued hover is below perturbation_tolerance; at most max_cycles wingbeats each.
+  // Tolerances are fractions of the weight (forces) and of weight x mean chord (moments).
+  double hover_tolerance = 0.02;
+  double perturbation_tolerance = 0.005;
+  int max_cycles = 12;
   int steps_per_cycle = 0;          // > 0: fixed dt = T / steps_per_cycle (phase-locked); 0: adaptive from cfl
   double cfl = 0.5;                 // adaptive step's CFL number
   int fields_per_cycle = 4;         // flow-field outputs per wingbeat (0: none)

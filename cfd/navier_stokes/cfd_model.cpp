@@ -1,83 +1,383 @@
-// The AeroModel over the CFD driver (cfd_model.hpp).
+// The AeroModel over the CFD solver (cfd_model.hpp).
 #include "cfd/navier_stokes/cfd_model.hpp"
 
-#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "cfd/navier_stokes/run.hpp"
+#include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 
 namespace flapstab::ns {
 
-WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
-                            const AeroRunOptions& options) const {
-  Case c = case_;
-  c.insect = insect;
-  CfdRunOptions o;
-  o.cycles = std::max(1, options.cycles);
-  const int run = ++runs_;
-  if (log_)
-    *log_ << fmt::format("cfd model: run {} ({} wingbeats), body velocity ({:.4g}, {:.4g}, {:.4g}) m/s, rates "
-                         "({:.4g}, {:.4g}, {:.4g}) rad/s ...\n",
-                         run, o.cycles, motion.velocity.x(), motion.velocity.y(), motion.velocity.z(),
-                         motion.rate.x(), motion.rate.y(), motion.rate.z())
-          << std::flush;
-  const auto t0 = std::chrono::steady_clock::now();
-  const CfdResult r = run_cfd(c, kin, motion, o);
-  if (log_)
-    *log_ << fmt::format("cfd model: run {} done in {:.1f} s\n", run,
-                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
-          << std::flush;
-  const double T = r.plan.period, start = (r.plan.cycles - 1) * T;
-  if (r.last_cycle.empty() || r.last_cycle.back().time - start < 1e-9 * T)
-    throw SolveError("cfd model: the run produced no loads");
-  // Phase times of the last wingbeat's rows in (0, T], extended periodically, resampled equally spaced.
-  std::vector<std::pair<double, WrenchSample>> pts;
-  for (const auto& row : r.last_cycle) {
-    if (row.time - start < 1e-9 * T) continue;  // the wingbeat's start row: the same phase as its end
-    WrenchSample w;
-    const auto wr = [&](int i) {
-      const auto& q = row.part[i];
-      return Wrench{q.pressure_force + q.viscous_force, q.pressure_moment + q.viscous_moment};
-    };
-    w.body = wr(0);
-    w.right = wr(1);
-    w.left = wr(2);
-    w.power = row.wing_power;
-    pts.emplace_back(row.time - start, w);
+namespace fs = std::filesystem;
+using clock_type = std::chrono::steady_clock;
+
+namespace {
+
+std::string fnv(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char ch : s) {
+    h ^= ch;
+    h *= 1099511628211ull;
   }
-  const int n = options.samples_per_cycle > 0 ? options.samples_per_cycle
-                : r.plan.steps_per_cycle > 0   ? r.plan.steps_per_cycle
-                                               : 64;
-  auto lerp = [](const WrenchSample& a, const WrenchSample& b, double f) {
-    WrenchSample w;
-    w.body = (1 - f) * a.body + f * b.body;
-    w.right = (1 - f) * a.right + f * b.right;
-    w.left = (1 - f) * a.left + f * b.left;
-    w.power = (1 - f) * a.power + f * b.power;
-    return w;
-  };
-  WrenchHistory h;
-  for (int j = 0; j < n; ++j) {
-    const double tau = T * j / n;
-    // Bracket tau among the points, the last one carried back by a period before the first.
-    std::pair<double, WrenchSample> lo{pts.back().first - T, pts.back().second}, hi = pts.front();
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      if (pts[k].first >= tau - 1e-12 * T) {
-        hi = pts[k];
-        if (k > 0) lo = pts[k - 1];
-        break;
-      }
-      lo = pts[k];
-      hi = {pts.front().first + T, pts.front().second};
+  return fmt::format("{:016x}", h);
+}
+
+// What identifies the insect and its kinematics for the runs (exact decimal images of the values).
+std::string fingerprint(const Insect& insect, const Kinematics& kin) {
+  std::string s = fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", insect.total_mass(),
+                              insect.wing.length, insect.wing.mean_chord, kin.frequency_hz, kin.stroke_plane,
+                              kin.body_angle);
+  for (Side side : {Side::right, Side::left})
+    for (int k = 0; k < 32; ++k) {
+      const WingAngleState a = kin.angles(side, kin.period() * k / 32);
+      s += fmt::format(" {:.17g} {:.17g} {:.17g}", a.phi, a.theta, a.alpha);
     }
-    const double f = hi.first > lo.first ? (tau - lo.first) / (hi.first - lo.first) : 1.0;
-    WrenchSample w = lerp(lo.second, hi.second, std::clamp(f, 0.0, 1.0));
-    w.time = tau;
+  return s;
+}
+
+std::string motion_label(const BodyMotion& m) {
+  std::string s;
+  const char* v[3] = {"u", "v", "w"};
+  const char* r[3] = {"p", "q", "r"};
+  for (int i = 0; i < 3; ++i)
+    if (m.velocity[i] != 0) s += fmt::format("{}{} = {:+.4g} m/s", s.empty() ? "" : ", ", v[i], m.velocity[i]);
+  for (int i = 0; i < 3; ++i)
+    if (m.rate[i] != 0) s += fmt::format("{}{} = {:+.4g} rad/s", s.empty() ? "" : ", ", r[i], m.rate[i]);
+  return s;
+}
+
+bool still(const BodyMotion& m) { return m.velocity.squaredNorm() == 0 && m.rate.squaredNorm() == 0; }
+
+CfdLoadRow combine(const CfdLoadRow& a, const CfdLoadRow& b, double sign) {
+  CfdLoadRow r = a;
+  for (int i = 0; i < 3; ++i) {
+    r.part[i].pressure_force += sign * b.part[i].pressure_force;
+    r.part[i].viscous_force += sign * b.part[i].viscous_force;
+    r.part[i].pressure_moment += sign * b.part[i].pressure_moment;
+    r.part[i].viscous_moment += sign * b.part[i].viscous_moment;
+    r.part[i].power += sign * b.part[i].power;
+  }
+  r.wing_power += sign * b.wing_power;
+  return r;
+}
+
+WrenchSample sample_of(const CfdLoadRow& row) {
+  WrenchSample w;
+  w.body = row.part[0].wrench();
+  w.right = row.part[1].wrench();
+  w.left = row.part[2].wrench();
+  w.power = row.wing_power;
+  return w;
+}
+
+// A wingbeat of n phase-locked rows (row i at phase i / n, i = 1..n) as a periodic history of `samples` samples
+// from phase 0 (linear interpolation when samples != n).
+WrenchHistory history_from_rows(const std::vector<CfdLoadRow>& rows, double T, int samples) {
+  const int n = int(rows.size());
+  if (n < 2) throw SolveError("cfd model: a wingbeat without loads");
+  if (samples <= 0) samples = n;
+  auto at = [&](int i) { return sample_of(rows[std::size_t(((i % n) + n - 1) % n)]); };  // sample at phase i / n
+  WrenchHistory h;
+  for (int j = 0; j < samples; ++j) {
+    const double x = double(j) * n / samples;
+    const int i = int(std::floor(x));
+    const double f = x - i;
+    const WrenchSample a = at(i), b = at(i + 1);
+    WrenchSample w;
+    w.body = Wrench{(1 - f) * a.body.force + f * b.body.force, (1 - f) * a.body.moment + f * b.body.moment};
+    w.right = Wrench{(1 - f) * a.right.force + f * b.right.force, (1 - f) * a.right.moment + f * b.right.moment};
+    w.left = Wrench{(1 - f) * a.left.force + f * b.left.force, (1 - f) * a.left.moment + f * b.left.moment};
+    w.power = (1 - f) * a.power + f * b.power;
+    w.time = T * j / samples;
     h.samples.push_back(w);
   }
   return h;
+}
+
+Wrench mean_of(const std::vector<CfdLoadRow>& rows) {
+  Wrench s;
+  for (const auto& r : rows) s += r.total();
+  return Wrench{s.force / double(rows.size()), s.moment / double(rows.size())};
+}
+
+nlohmann::json rows_json(const std::vector<CfdLoadRow>& rows) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& r : rows) {
+    std::string line = forces_csv_row(r);
+    line.pop_back();
+    a.push_back(line);
+  }
+  return a;
+}
+
+std::vector<CfdLoadRow> rows_from(const nlohmann::json& a) {
+  std::vector<CfdLoadRow> rows;
+  for (const auto& l : a) rows.push_back(parse_forces_csv_row(l.get<std::string>()));
+  return rows;
+}
+
+nlohmann::json cycles_json(const std::vector<CycleRecord>& cycles) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& c : cycles)
+    a.push_back({{"cycle", c.cycle},
+                 {"mean_force_N", {c.mean.force.x(), c.mean.force.y(), c.mean.force.z()}},
+                 {"mean_moment_N_m", {c.mean.moment.x(), c.mean.moment.y(), c.mean.moment.z()}},
+                 {"change", c.change}});
+  return a;
+}
+
+std::vector<CycleRecord> cycles_from(const nlohmann::json& a) {
+  std::vector<CycleRecord> out;
+  for (const auto& c : a) {
+    CycleRecord r;
+    r.cycle = c.at("cycle").get<int>();
+    for (int i = 0; i < 3; ++i) {
+      r.mean.force[i] = c.at("mean_force_N").at(std::size_t(i)).get<double>();
+      r.mean.moment[i] = c.at("mean_moment_N_m").at(std::size_t(i)).get<double>();
+    }
+    r.change = c.at("change").get<double>();
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::optional<nlohmann::json> read_json(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  try {
+    nlohmann::json j = nlohmann::json::parse(in);
+    if (j.value("key", std::string()) != key) return std::nullopt;
+    return j;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace
+
+struct CfdModel::State {
+  std::string key;  // the case file, the base insect and kinematics
+  Case base_case;
+  Kinematics base_kin;
+  std::string base_print;
+  CfdPlan plan;
+  PeriodicSettings hover_settings, perturbed_settings;
+  SimulationState hover_state;
+  std::vector<CfdLoadRow> hover_rows;
+  std::unique_ptr<Simulation> ref_sim;
+  std::optional<SimulationState> ref_end;  // the reference's state after its last cycle (from the cache)
+  std::vector<CycleRecord> ref_cycles;
+  std::vector<std::vector<CfdLoadRow>> ref_rows;
+  std::vector<CfdRunRecord> records;
+  int runs = 0;
+};
+
+CfdModel::CfdModel(Case c, std::ostream* log, std::string cache_directory)
+    : case_(std::move(c)), log_(log), cache_(std::move(cache_directory)) {}
+CfdModel::~CfdModel() = default;
+
+const std::vector<CfdRunRecord>& CfdModel::records() const {
+  static const std::vector<CfdRunRecord> none;
+  return st_ ? st_->records : none;
+}
+const CfdPlan* CfdModel::plan() const { return st_ ? &st_->plan : nullptr; }
+const std::vector<CycleRecord>& CfdModel::reference_cycles() const {
+  static const std::vector<CycleRecord> none;
+  return st_ ? st_->ref_cycles : none;
+}
+
+WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
+                            const AeroRunOptions& options) const {
+  const CfdSettings& s = case_.aero.cfd;
+  if (s.steps_per_cycle <= 0)
+    throw InputError(case_.path, "aero.cfd.steps_per_cycle",
+                     "the CFD model runs periodic wingbeats with a fixed, phase-locked time step; none is set",
+                     "steps_per_cycle = N, e.g. 400 (a whole number of steps per wingbeat)");
+  auto& self = const_cast<CfdModel&>(*this);
+  const std::string print = fingerprint(insect, kin);
+  const std::string hash = case_.path.empty() ? std::string("none") : case_hash(case_.path);
+  auto file = [&](const std::string& name) { return cache_ + "/" + name; };
+  auto say = [&](const std::string& line) {
+    if (log_) *log_ << line << std::flush;
+  };
+  const double weight = insect.total_mass() * standard_gravity;
+
+  // 1. The base hover, once.
+  if (!st_) {
+    auto st = std::make_unique<State>();
+    st->base_case = case_;
+    st->base_case.insect = insect;
+    st->base_kin = kin;
+    st->base_print = print;
+    st->key = fnv(hash + "|" + print);
+    st->plan = plan_cfd(st->base_case, kin, BodyMotion{});
+    st->hover_settings = {s.hover_tolerance, std::max({2, s.cycles, options.cycles}), s.max_cycles, weight,
+                          weight * insect.wing.mean_chord};
+    st->perturbed_settings = {s.perturbation_tolerance, 2, s.max_cycles, weight, weight * insect.wing.mean_chord};
+    CfdRunRecord rec;
+    rec.label = "hover";
+    const auto cached = cache_.empty() ? std::nullopt : read_json(file("hover.json"), st->key);
+    if (cached && fs::exists(file("hover.h5"))) {
+      const CheckpointReader ck(file("hover.h5"));
+      st->hover_state = read_state(ck, plan_grid(st->plan).shape());
+      st->hover_rows = rows_from(cached->at("last_cycle"));
+      rec.cycles = cycles_from(cached->at("cycles"));
+      rec.converged = cached->at("converged").get<bool>();
+      rec.wall_seconds = cached->at("wall_s").get<double>();
+      rec.reused = true;
+      say(fmt::format("cfd model: hover state reused from {} ({} wingbeats)\n", file("hover.h5"), rec.cycles.size()));
+    } else {
+      const CfdPlan& p = st->plan;
+      say(fmt::format("cfd model: hover from rest, grid {} cells ({:.1f} per mean chord), {} steps per wingbeat, "
+                      "{} to {} wingbeats until the cycle-mean loads change by less than {:g} of the weight\n",
+                      plan_grid(p).cells(), p.chord_cells, p.steps_per_cycle, st->hover_settings.min_cycles,
+                      st->hover_settings.max_cycles, st->hover_settings.tolerance));
+      Simulation sim(st->base_case, kin, BodyMotion{}, p);
+      const PeriodicRun pr = run_until_periodic(sim, st->hover_settings, log_, "  hover ");
+      st->hover_state = sim.state();
+      st->hover_rows = pr.last_cycle;
+      rec.cycles = pr.cycles;
+      rec.converged = pr.converged;
+      rec.wall_seconds = pr.wall_seconds;
+      if (!pr.converged)
+        say(fmt::format("  warning: the hover did not converge in {} wingbeats (last change {:.3g} of the weight, "
+                        "hover_tolerance {:g}); its state is kept and perturbations are measured against its "
+                        "continuation\n", pr.cycles.size(), pr.final_change(), st->hover_settings.tolerance));
+      if (!cache_.empty()) {
+        fs::create_directories(cache_);
+        write_state(file("hover.h5"), st->hover_state, {}, {{"key", st->key}});
+        nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
+                            {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
+        write_file_atomic(file("hover.json"), j.dump(1) + "\n");
+      }
+    }
+    if (!cache_.empty()) {
+      if (const auto r = read_json(file("reference.json"), st->key); r && fs::exists(file("reference.h5"))) {
+        st->ref_cycles = cycles_from(r->at("cycles"));
+        for (const auto& c : r->at("rows")) st->ref_rows.push_back(rows_from(c));
+        const CheckpointReader ck(file("reference.h5"));
+        st->ref_end = read_state(ck, plan_grid(st->plan).shape());
+      }
+    }
+    st->records.push_back(rec);
+    self.st_ = std::move(st);
+  }
+  State& st = *st_;
+  const double T = st.plan.period;
+  const int n = st.plan.steps_per_cycle;
+  const bool base_kin = print == st.base_print;
+  if (base_kin && still(motion)) return history_from_rows(st.hover_rows, T, options.samples_per_cycle);
+
+  // 3. A perturbed run from the kept hover state (or its cached result).
+  const std::string label = (motion_label(motion).empty() ? std::string() : motion_label(motion)) +
+                            (base_kin ? "" : std::string(still(motion) ? "" : ", ") + "other kinematics");
+  const std::string run_key = fnv(st.key + "|" + print + "|" + fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}",
+                                  motion.velocity.x(), motion.velocity.y(), motion.velocity.z(), motion.rate.x(),
+                                  motion.rate.y(), motion.rate.z()));
+  const std::string run_file = file("run_" + run_key + ".json");
+  CfdRunRecord rec;
+  rec.label = label;
+  rec.motion = motion;
+  rec.other_kinematics = !base_kin;
+  std::vector<CfdLoadRow> diff;
+  const int number = ++st.runs;
+  if (const auto cached = cache_.empty() ? std::nullopt : read_json(run_file, run_key)) {
+    rec.cycles = cycles_from(cached->at("cycles"));
+    rec.converged = cached->at("converged").get<bool>();
+    rec.wall_seconds = cached->at("wall_s").get<double>();
+    rec.reused = true;
+    diff = rows_from(cached->at("difference"));
+    say(fmt::format("cfd model: run {} ({}) reused from {}\n", number, label, run_file));
+  } else {
+    Case c = case_;
+    c.insect = insect;
+    if (!base_kin) {  // other kinematics must stay within the fine box planned for the base hover
+      const CfdPlan q = plan_cfd(c, kin, BodyMotion{});
+      const double out = std::max((q.swept_hi - st.plan.fine_hi).maxCoeff(), (st.plan.fine_lo - q.swept_lo).maxCoeff());
+      if (out > 0)
+        throw InputError(case_.path, "aero.cfd.fine_margin_R",
+                         fmt::format("kinematics asked of the CFD model sweep {:.3g} m beyond the fine box planned for "
+                                     "the base hover", out),
+                         "a larger fine_margin_R, so that one grid holds every kinematics of the analysis");
+    }
+    say(fmt::format("cfd model: run {} ({}) from the kept hover state, until its difference from the continued hover "
+                    "changes by less than {:g} of the weight per wingbeat\n",
+                    number, label, st.perturbed_settings.tolerance));
+    const auto t0 = clock_type::now();
+    Simulation sim(c, kin, motion, st.plan);
+    sim.restore(st.hover_state, BodyMotion{});
+    Wrench previous;
+    for (int k = 1; k <= st.perturbed_settings.max_cycles; ++k) {
+      std::vector<CfdLoadRow> rows;
+      for (int i = 0; i < n; ++i) rows.push_back(sim.advance().row);
+      // The reference at the same wingbeat.
+      while (int(st.ref_cycles.size()) < k) {
+        if (!st.ref_sim) {
+          st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan);
+          st.ref_sim->restore(st.ref_end ? *st.ref_end : st.hover_state);
+        }
+        std::vector<CfdLoadRow> rr;
+        for (int i = 0; i < n; ++i) rr.push_back(st.ref_sim->advance().row);
+        CycleRecord cr;
+        cr.cycle = int(st.ref_cycles.size()) + 1;
+        cr.mean = mean_of(rr);
+        if (!st.ref_cycles.empty()) cr.change = cycle_change(cr.mean, st.ref_cycles.back().mean, st.hover_settings);
+        st.ref_cycles.push_back(cr);
+        st.ref_rows.push_back(rr);
+        say(fmt::format("  reference wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N\n", cr.cycle,
+                        cr.mean.force.x(), cr.mean.force.y(), cr.mean.force.z()));
+        if (!cache_.empty()) {
+          write_state(file("reference.h5"), st.ref_sim->state(), {}, {{"key", st.key}});
+          nlohmann::json rows = nlohmann::json::array();
+          for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
+          write_file_atomic(file("reference.json"),
+                            nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows}}.dump(1) + "\n");
+        }
+      }
+      const auto& ref = st.ref_rows[std::size_t(k - 1)];
+      diff.clear();
+      for (int i = 0; i < n; ++i) diff.push_back(combine(rows[std::size_t(i)], ref[std::size_t(i)], -1));
+      CycleRecord cr;
+      cr.cycle = k;
+      cr.mean = mean_of(rows);
+      const Wrench d = mean_of(diff);
+      if (k > 1) cr.change = cycle_change(d, previous, st.perturbed_settings);
+      previous = d;
+      rec.cycles.push_back(cr);
+      say(fmt::format("  wingbeat {:>2}: difference from the hover dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, dM = ({:+.4e}, "
+                      "{:+.4e}, {:+.4e}) N m, change {}\n",
+                      k, d.force.x(), d.force.y(), d.force.z(), d.moment.x(), d.moment.y(), d.moment.z(),
+                      cr.change < 0 ? std::string("-") : fmt::format("{:.2e}", cr.change)));
+      if (k >= st.perturbed_settings.min_cycles && cr.change >= 0 && cr.change < st.perturbed_settings.tolerance) {
+        rec.converged = true;
+        break;
+      }
+    }
+    rec.wall_seconds = std::chrono::duration<double>(clock_type::now() - t0).count();
+    if (!rec.converged)
+      say(fmt::format("  warning: run {} did not converge in {} wingbeats (last change {:.3g} of the weight, "
+                      "perturbation_tolerance {:g})\n", number, rec.cycles.size(), rec.final_change(),
+                      st.perturbed_settings.tolerance));
+    say(fmt::format("cfd model: run {} done: {} wingbeats in {:.1f} s\n", number, rec.cycles.size(), rec.wall_seconds));
+    if (!cache_.empty()) {
+      fs::create_directories(cache_);
+      nlohmann::json j = {{"key", run_key}, {"label", label}, {"cycles", cycles_json(rec.cycles)},
+                          {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)}};
+      write_file_atomic(run_file, j.dump(1) + "\n");
+    }
+  }
+  st.records.push_back(rec);
+  std::vector<CfdLoadRow> answer;
+  for (int i = 0; i < n; ++i) answer.push_back(combine(st.hover_rows[std::size_t(i)], diff[std::size_t(i)], +1));
+  return history_from_rows(answer, T, options.samples_per_cycle);
 }
 
 }  // namespace flapstab::ns

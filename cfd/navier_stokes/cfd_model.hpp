@@ -1,27 +1,63 @@
-// The AeroModel over the CFD driver (trim, derivatives and analyze with [aero] model = "cfd").
+// The AeroModel over the CFD solver (trim, derivatives and analyze with [aero] model = "cfd"): periodic loads of
+// the hover and of its perturbations, each run from one kept periodic hover state.
+//
+// 1. Base hover, computed once: the first kinematics asked for are run from rest in quiescent air for at least
+//    [aero.cfd] cycles wingbeats and until the cycle-to-cycle change of the mean loads is below hover_tolerance
+//    (max_cycles at most); that state is kept. Its last wingbeat is the hover's answer.
+// 2. Reference: the hover continued from the kept state, wingbeat by wingbeat, as far as any perturbed run goes.
+// 3. Every other request (a steady body motion, other kinematics, or both) starts from the kept hover state on
+//    the same grid (it is fixed to the body, cfd/navier_stokes/insect_motion.hpp) and runs until the change of its
+//    difference from the reference at the same wingbeat, d_k = W_k - W_ref,k, is below perturbation_tolerance
+//    (at least 2 wingbeats). Its answer is the base hover's last wingbeat plus d at every phase. The hover's own
+//    slow drift (the wake still developing) is common to both and cancels in d, and central differences of these
+//    answers difference the d's only.
+// Tolerances: fractions of the weight (forces) and of weight x mean chord (moments). Each run reports its cycles,
+// final change and wall time (records()); with a cache directory every finished run and the kept states are saved
+// there and reused when the same case is run again (a killed analysis resumes without recomputing).
 #pragma once
-#include <atomic>
 #include <iostream>
+#include <memory>
 #include <string>
+#include <vector>
+#include "cfd/navier_stokes/periodic.hpp"
 #include "core/aero_model.hpp"
 #include "core/case_file.hpp"
 
 namespace flapstab::ns {
 
-// Runs options.cycles wingbeats in memory and returns the last one. Every run is a whole CFD run (minutes): trim
-// and derivatives call it tens of times, so each run announces itself and its wall time on `log` (std::cerr by
-// default; nullptr: silent).
+struct CfdRunRecord {
+  std::string label;              // "hover", or the motion / kinematics change
+  BodyMotion motion;
+  bool other_kinematics = false;  // kinematics differ from the base hover's
+  std::vector<CycleRecord> cycles;  // cycle means of the run; change: of the run itself (hover) or of d (others)
+  bool converged = false;
+  double wall_seconds = 0;
+  bool reused = false;            // read from the cache directory
+  double final_change() const { return cycles.empty() ? -1 : cycles.back().change; }
+};
+
 class CfdModel final : public AeroModel {
  public:
-  explicit CfdModel(Case c, std::ostream* log = &std::cerr) : case_(std::move(c)), log_(log) {}
+  explicit CfdModel(Case c, std::ostream* log = &std::cerr, std::string cache_directory = {});
+  ~CfdModel() override;
   std::string name() const override { return "navier-stokes-ib"; }
+  // options.cycles > [aero.cfd] cycles raises the hover's minimum; samples_per_cycle resamples (0: one sample per
+  // time step).
   WrenchHistory run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
                     const AeroRunOptions& options) const override;
 
+  // Every run so far, the base hover first.
+  const std::vector<CfdRunRecord>& records() const;
+  // The grid every run shares (after the first run), and the reference continuation's cycle means.
+  const CfdPlan* plan() const;
+  const std::vector<CycleRecord>& reference_cycles() const;
+
  private:
+  struct State;
   Case case_;
   std::ostream* log_;
-  mutable std::atomic<int> runs_{0};
+  std::string cache_;
+  std::unique_ptr<State> st_;
 };
 
 }  // namespace flapstab::ns

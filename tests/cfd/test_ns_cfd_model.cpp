@@ -1,0 +1,134 @@
+// Tests of the CFD AeroModel (cfd/navier_stokes/cfd_model): the kept periodic hover state, perturbed runs from it
+// measured against the continued hover, the settings honoured, and the run cache that makes analyses resumable.
+#include <gtest/gtest.h>
+#include <cmath>
+#include <filesystem>
+#include <unistd.h>
+
+#include "cfd/navier_stokes/cfd_model.hpp"
+#include "cfd/navier_stokes/plan.hpp"
+#include "common/case_text.hpp"
+#include "common/expect_error.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::ns {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The test moth on a tiny grid (4 cells per mean chord), a gentle wingbeat (stroke +-10 deg, pitch 90 +- 10 deg)
+// at Re = 20, 60 steps per wingbeat: a wingbeat costs about a second.
+Case model_case(const std::string& name, const std::string& extra) {
+  const std::string keys =
+      "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
+      "below_R = 0.5\nsteps_per_cycle = 60\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\n"
+      "threads = 1\nreynolds = 20\n" + extra;
+  std::string text = testing::replace(testing::valid_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
+  text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
+                          "sin_deg = [-10.0]");
+  return load_case(testing::write_temp(name, text));
+}
+
+std::string fresh_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  return d.string();
+}
+
+// The hover runs at least [aero.cfd] cycles wingbeats, stops once the cycle-to-cycle change is below
+// hover_tolerance (or at max_cycles), and its last wingbeat is the answer for the unperturbed state.
+TEST(CfdModel, HoverHonoursCyclesToleranceAndMaxCycles) {
+  for (const auto& [keys, min_cycles, max_cycles] :
+       {std::tuple<std::string, int, int>{"cycles = 3\nhover_tolerance = 0.5\nmax_cycles = 6\n", 3, 6},
+        {"cycles = 1\nhover_tolerance = 1e-9\nmax_cycles = 4\n", 2, 4}}) {
+    SCOPED_TRACE(keys);
+    const Case c = model_case("model_hover.toml", keys);
+    const CfdModel model(c, nullptr);
+    const WrenchHistory h = model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+    ASSERT_EQ(h.samples.size(), 60u);
+    const CfdRunRecord& hover = model.records().at(0);
+    EXPECT_GE(int(hover.cycles.size()), min_cycles);
+    EXPECT_LE(int(hover.cycles.size()), max_cycles);
+    if (hover.converged) {
+      EXPECT_LT(hover.final_change(), c.aero.cfd.hover_tolerance);
+    } else {
+      EXPECT_EQ(int(hover.cycles.size()), max_cycles);
+    }
+    // The answer is the last wingbeat: its mean is the last cycle mean.
+    EXPECT_NEAR(h.mean().force.z(), hover.cycles.back().mean.force.z(), 1e-12);
+  }
+}
+
+// A perturbed run starts from the kept hover state and is measured against the continued hover: a vanishing
+// motion changes nothing (d = 0 to round-off, converged after the minimum two wingbeats), and a forward speed u
+// gives a drag X < 0 that flips sign with u, to within the linearity check's asymmetry.
+TEST(CfdModel, PerturbedRunsStartFromTheKeptHoverState) {
+  const Case c = model_case("model_pert.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 5\n"
+                                               "perturbation_tolerance = 0.01\n");
+  const CfdModel model(c, nullptr);
+  const Wrench w0 = model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{}).mean();
+  BodyMotion tiny;
+  tiny.velocity.x() = 1e-12;
+  const Wrench wt = model.run(c.insect, c.kinematics, tiny, AeroRunOptions{}).mean();
+  const double W = c.insect.total_mass() * standard_gravity;
+  EXPECT_LT((wt.force - w0.force).norm(), 1e-9 * W);
+  EXPECT_EQ(model.records().back().cycles.size(), 2u);
+  EXPECT_TRUE(model.records().back().converged);
+  const double U = 0.05;  // m/s, about 2 % of the mean wingtip speed
+  BodyMotion plus, minus;
+  plus.velocity.x() = U;
+  minus.velocity.x() = -U;
+  const Wrench wp = model.run(c.insect, c.kinematics, plus, AeroRunOptions{}).mean();
+  const Wrench wm = model.run(c.insect, c.kinematics, minus, AeroRunOptions{}).mean();
+  const double dp = wp.force.x() - w0.force.x(), dm = wm.force.x() - w0.force.x();
+  std::printf("  tiny moth: X(+u) - X0 = %.4g N, X(-u) - X0 = %.4g N (weight %.4g N)\n", dp, dm, W);
+  EXPECT_LT(dp, 0.0);
+  EXPECT_GT(dm, 0.0);
+  EXPECT_LT(std::abs(dp + dm), 0.2 * std::abs(dp - dm));  // linear to 20 % over +-2 % of U_ref
+  // Every run of the campaign shares the hover's grid and the reference continuation went as far as the runs.
+  ASSERT_NE(model.plan(), nullptr);
+  std::size_t longest = 0;
+  for (const auto& r : model.records()) if (r.label != "hover") longest = std::max(longest, r.cycles.size());
+  EXPECT_EQ(model.reference_cycles().size(), longest);
+}
+
+// With a cache directory, a second model on the same case reuses the hover state and every finished run: the same
+// answers bit for bit, nothing recomputed (a killed and restarted analysis loses no finished run).
+TEST(CfdModel, CachedRunsAreReusedBitForBit) {
+  const Case c = model_case("model_cache.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n"
+                                                "perturbation_tolerance = 0.5\n");
+  const std::string dir = fresh_dir("cache");
+  BodyMotion q;
+  q.rate.y() = 2.0;  // rad/s: a pitch rate, seen from the turning frame
+  WrenchHistory a0, aq;
+  {
+    const CfdModel first(c, nullptr, dir);
+    a0 = first.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+    aq = first.run(c.insect, c.kinematics, q, AeroRunOptions{});
+    EXPECT_FALSE(first.records().back().reused);
+  }
+  EXPECT_TRUE(fs::exists(dir + "/hover.h5"));
+  const CfdModel second(c, nullptr, dir);
+  const WrenchHistory b0 = second.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+  const WrenchHistory bq = second.run(c.insect, c.kinematics, q, AeroRunOptions{});
+  EXPECT_TRUE(second.records().at(0).reused);
+  EXPECT_TRUE(second.records().back().reused);
+  ASSERT_EQ(bq.samples.size(), aq.samples.size());
+  for (std::size_t i = 0; i < aq.samples.size(); ++i) {
+    EXPECT_EQ(bq.samples[i].total().moment, aq.samples[i].total().moment) << i;
+    EXPECT_EQ(b0.samples[i].total().force, a0.samples[i].total().force) << i;
+  }
+  fs::remove_all(fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())));
+}
+
+// Without a fixed step the periodic runs cannot be phase-locked: an input error naming the key, before any run.
+TEST(CfdModel, AdaptiveStepIsAnInputError) {
+  Case c = model_case("model_adaptive.toml", "");
+  c.aero.cfd.steps_per_cycle = 0;
+  const CfdModel model(c, nullptr);
+  testing::expect_input_error([&] { model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{}); },
+                              "aero.cfd.steps_per_cycle");
+}
+
+}  // namespace
+}  // namespace flapstab::ns
