@@ -2,9 +2,11 @@
 #include "apps/commands.hpp"
 
 #include <chrono>
+#include <iostream>
 #include <optional>
 #include <fmt/format.h>
 
+#include "apps/cfd_study.hpp"
 #include "apps/floquet_command.hpp"
 #include "apps/report.hpp"
 #include "apps/revolving.hpp"
@@ -16,11 +18,18 @@
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "flight/control_derivatives.hpp"
+#include "trim/refine.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
 
 namespace {
+
+// The CFD run cache of a command's output directory ("" without one).
+std::string cfd_cache(const CommandOptions& o, const Case& c) {
+  const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
+  return dir.empty() ? std::string() : dir + "/cfd_runs";
+}
 
 TrimResult trimmed(const Case& c, const AeroModel& model) {
   TrimResult t = trim_hover(c, model);
@@ -57,7 +66,19 @@ int run_trim_hover(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
   const auto model = make_aero_model(c);
-  const TrimResult t = trimmed(c, *model);
+  TrimResult t;
+  if (c.aero.model == "cfd") {  // the quasi-steady trim, refined on the CFD cycle means (trim/refine.hpp)
+    Case qc = c;
+    qc.aero.model = "quasi-steady";
+    const auto qs = make_aero_model(qc);
+    const TrimResult start = trimmed(qc, *qs);
+    ns::CfdModel cfd(c, o.quiet ? nullptr : &std::cerr, cfd_cache(o, c));
+    cfd.plan_for(trim_extreme_kinematics(c, start));
+    t = refine_trim(c, cfd, *qs, start, RefineSettings{c.aero.cfd.trim_tolerance, c.aero.cfd.trim_iterations},
+                    o.quiet ? nullptr : &std::cerr);
+  } else {
+    t = trimmed(c, *model);
+  }
   const double secs = seconds_since(t0);
   nlohmann::json j = metadata_json(c, "trim-hover");
   j["trim"] = trim_json(t);
@@ -72,13 +93,23 @@ int run_trim_hover(const CommandOptions& o) {
 int run_derivatives(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
-  const auto model = make_aero_model(c);
-  const TrimResult t = trimmed(c, *model);
-  const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
+  std::optional<CfdStudy> cfd;
+  TrimResult t;
+  DerivativeResult d;
+  if (c.aero.model == "cfd") {
+    cfd = cfd_study(c, cfd_cache(o, c), o.quiet ? nullptr : &std::cerr);
+    t = cfd->trim;
+    d = cfd->derivatives;
+  } else {
+    const auto model = make_aero_model(c);
+    t = trimmed(c, *model);
+    d = derivatives_with_control(c, *model, t.kinematics);
+  }
   const double secs = seconds_since(t0);
   nlohmann::json j = metadata_json(c, "derivatives");
   j["trim"] = trim_json(t);
   j["derivatives"] = derivatives_json(d);
+  if (cfd) j["cfd"] = cfd_study_json(*cfd);
   j["wall_time_s"] = secs;
   const std::string text = j.dump(2) + "\n";
   DerivativeTable table = d.table;
@@ -98,6 +129,7 @@ int run_derivatives(const CommandOptions& o) {
       for (int k = 0; k < 6; ++k) fmt::print(" {:>11.4e}", d.table.nd(i, k));
       fmt::print("\n");
     }
+    if (cfd) fmt::print("\n{}", cfd_study_markdown(*cfd));
   }
   return 0;
 }
@@ -151,13 +183,21 @@ int run_stability(const CommandOptions& o) {
          {"derivative_table", o.derivatives_path}, {"derivative_table_fnv1a64", file_hash(o.derivatives_path)}};
   } else {
     const Case c = load_case(o.case_path);
-    const auto model = make_aero_model(c);
-    const TrimResult t = trimmed(c, *model);
-    const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
-    table = d.table;
     j = metadata_json(c, "stability");
-    j["trim"] = trim_json(t);
-    j["derivatives"] = derivatives_json(d);
+    if (c.aero.model == "cfd") {
+      const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), o.quiet ? nullptr : &std::cerr);
+      table = cfd.derivatives.table;
+      j["trim"] = trim_json(cfd.trim);
+      j["derivatives"] = derivatives_json(cfd.derivatives);
+      j["cfd"] = cfd_study_json(cfd);
+    } else {
+      const auto model = make_aero_model(c);
+      const TrimResult t = trimmed(c, *model);
+      const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
+      table = d.table;
+      j["trim"] = trim_json(t);
+      j["derivatives"] = derivatives_json(d);
+    }
   }
   const StabilityReport rep = stability_of(table, o.model);
   j["stability"] = stability_json(rep, o.model);
@@ -177,23 +217,40 @@ int run_analyze(const CommandOptions& o) {
   const Case c = load_case(o.case_path);
   const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
   const auto model = make_aero_model(c);
-  const TrimResult t = trimmed(c, *model);
-  const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
+  std::optional<CfdStudy> cfd;
+  TrimResult t;
+  DerivativeResult d;
+  WrenchHistory history;
+  if (c.aero.model == "cfd") {
+    cfd = cfd_study(c, dir + "/cfd_runs", o.quiet ? nullptr : &std::cerr);
+    t = cfd->trim;
+    d = cfd->derivatives;
+    history = cfd->history;
+  } else {
+    t = trimmed(c, *model);
+    d = derivatives_with_control(c, *model, t.kinematics);
+    AeroRunOptions fine;
+    fine.samples_per_cycle = 256;
+    history = model->run(c.insect, t.kinematics, BodyMotion{}, fine);
+  }
   const StabilityReport rep = stability_of(d.table, "6dof");
-  AeroRunOptions fine;
-  fine.samples_per_cycle = 256;
-  const WrenchHistory history = model->run(c.insect, t.kinematics, BodyMotion{}, fine);
   // The time-periodic analysis and the revolving-wing comparison need an instantaneous model and a
   // symmetric insect; where they cannot run, the report says why and the rest is still written.
   std::vector<std::string> notices;
   std::optional<FloquetStudy> floquet;
   std::optional<RevolvingComparison> revolving;
-  try {
-    floquet = floquet_study(c, *model);
-  } catch (const std::exception& e) {
-    notices.push_back(std::string("Floquet analysis skipped: ") + e.what());
+  if (cfd) {
+    notices.push_back("the cyclic-trim Floquet study, the revolving-wing comparison and the pitch-feedback analysis "
+                      "need instantaneous loads (the quasi-steady model); with model = \"cfd\" the Floquet analysis "
+                      "of the CFD A(t) is in the Navier-Stokes section, control derivatives are not computed from CFD");
+  } else {
+    try {
+      floquet = floquet_study(c, *model);
+    } catch (const std::exception& e) {
+      notices.push_back(std::string("Floquet analysis skipped: ") + e.what());
+    }
   }
-  if (!c.kinematics.revolving()) {
+  if (!cfd && !c.kinematics.revolving()) {
     try {
       revolving = compare_with_revolving(c, t.kinematics, *model);
     } catch (const std::exception& e) {
@@ -207,7 +264,7 @@ int run_analyze(const CommandOptions& o) {
     } catch (const SolveError& e) {
       notices.push_back(std::string("pitch-feedback analysis skipped: ") + e.what());
     }
-  } else if (c.control.type == "pitch") {
+  } else if (c.control.type == "pitch" && !cfd) {
     notices.push_back("pitch-feedback analysis skipped: it needs the time-periodic hover (see the Floquet note)");
   }
   const double secs = seconds_since(t0);
@@ -222,12 +279,14 @@ int run_analyze(const CommandOptions& o) {
   inputs.revolving = revolving ? &*revolving : nullptr;
   inputs.control = control ? &*control : nullptr;
   inputs.notices = notices;
+  if (cfd) inputs.extra_markdown = cfd_study_markdown(*cfd);
   const ReportFiles files = build_report(inputs);
 
   nlohmann::json j = metadata_json(c, "analyze");
   j["trim"] = trim_json(t);
   j["derivatives"] = derivatives_json(d);
   j["stability"] = stability_json(rep, "6dof");
+  if (cfd) j["cfd"] = cfd_study_json(*cfd);
   j["wall_time_s"] = secs;
   if (!files.figure_notice.empty()) j["figure_notice"] = files.figure_notice;
   if (floquet) j["floquet"] = floquet_json(c, *floquet);

@@ -370,6 +370,7 @@ ReportFiles build_report(const ReportInputs& in) {
                       col.parameter, col.unit, col.nd(0), col.nd(2), col.nd(4), -k.neutral.z_at_com * 1e3,
                       -k.neutral.z_at_com / d.reference.c);
   }
+  md << in.extra_markdown;
   for (const auto& n : in.notices) md << "**Note:** " << n << "\n\n";
   if (!out.figure_notice.empty()) md << "**Figures omitted:** " << out.figure_notice << "\n\n";
   md << "## Files\n\n- `results.json`: everything above, machine-readable (units and conventions inside).\n"

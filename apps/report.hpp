@@ -26,6 +26,7 @@ struct ReportInputs {
   const RevolvingComparison* revolving = nullptr; // equivalent revolving-wing flyer (optional)
   const ControlSummary* control = nullptr;        // the case's pitch feedback (optional)
   std::vector<std::string> notices;               // analyses skipped and why
+  std::string extra_markdown;                     // further sections (the CFD stability study), before the notes
 };
 
 struct ReportFiles {

@@ -100,12 +100,13 @@ json trim_json(const TrimResult& r) {
 json derivatives_json(const DerivativeResult& d) {
   static const char* rows = "XYZLMN";
   static const char* cols[] = {"u", "v", "w", "p", "q", "r"};
-  json nd, si;
+  json nd, si, asym;
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j) {
       const std::string name = std::string(1, rows[i]) + cols[j];
       nd[name] = d.table.nd(i, j);
       si[name] = d.si(i, j);
+      asym[name] = d.asymmetry(i, j);
     }
   const auto& ref = d.table.reference;
   const auto& m = d.table.mass;
@@ -124,6 +125,8 @@ json derivatives_json(const DerivativeResult& d) {
                     {"Ixz_kg_m2", m.Ixz}}},
           {"nondimensional", nd},
           {"si", si},
+          {"linearity_asymmetry", asym},
+          {"linearity_note", "|(W+ - W0) + (W- - W0)| / |W+ - W-| per derivative: 0 for a linear response"},
           {"si_units", "X, Y, Z in N and L, M, N in N m; per m/s for u, v, w and per rad/s for p, q, r"},
           {"velocity_step_m_s", d.velocity_step},
           {"rate_step_rad_s", d.rate_step},

@@ -1,6 +1,9 @@
 // Cycle-averaged stability derivatives by central differences over any AeroModel.
 #include "cfd/derivatives.hpp"
+#include "cfd/phase_derivatives.hpp"
 #include "core/configuration.hpp"
+#include "core/eom.hpp"
+#include "core/errors.hpp"
 
 namespace flapstab {
 
@@ -64,7 +67,14 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
     Vec3& q = j < 3 ? minus.velocity : minus.rate;
     p(j % 3) = h;
     q(j % 3) = -h;
-    out.si.col(j) = (mean(plus) - mean(minus)) / (2 * h);
+    const auto wp = mean(plus), wm = mean(minus);
+    out.si.col(j) = (wp - wm) / (2 * h);
+    Eigen::Matrix<double, 6, 1> w0;
+    w0 << out.mean_at_trim.force, out.mean_at_trim.moment;
+    for (int i = 0; i < 6; ++i) {
+      const double den = std::abs(wp(i) - wm(i));
+      out.asymmetry(i, j) = den > 0 ? std::abs(wp(i) + wm(i) - 2 * w0(i)) / den : 0.0;
+    }
   }
   // Non-dimensional: d(F/(q S_t)) / d(u/U) and d(F/(q S_t)) / d(q c/U); moments also / c.
   for (int i = 0; i < 6; ++i) {
@@ -73,6 +83,48 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
       const double var = j < 3 ? ref.U : ref.U / ref.c;
       t.nd(i, j) = out.si(i, j) * var / load;
     }
+  }
+  return out;
+}
+
+PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
+                                          const ReferenceQuantities& ref, double relative_step, double g) {
+  if (!(relative_step > 0)) throw SolveError("phase_resolved_from_runs: the relative step must be positive");
+  PhaseDerivatives out;
+  out.period = kin.period();
+  out.relative_step = relative_step;
+  out.velocity_step = relative_step * ref.U;
+  out.rate_step = relative_step * ref.U / ref.c;
+  out.reference = ref;
+  const WrenchHistory h0 = model.run(insect, kin, BodyMotion{}, AeroRunOptions{});
+  const std::size_t N = h0.samples.size();
+  if (N < 3) throw SolveError("phase_resolved_from_runs: the model's wingbeat has fewer than 3 samples");
+  std::vector<WrenchHistory> plus(6), minus(6);
+  for (int j = 0; j < 6; ++j) {
+    const double h = j < 3 ? out.velocity_step : out.rate_step;
+    BodyMotion p, m;
+    (j < 3 ? p.velocity : p.rate)(j % 3) = h;
+    (j < 3 ? m.velocity : m.rate)(j % 3) = -h;
+    plus[std::size_t(j)] = model.run(insect, kin, p, AeroRunOptions{});
+    minus[std::size_t(j)] = model.run(insect, kin, m, AeroRunOptions{});
+    if (plus[std::size_t(j)].samples.size() != N || minus[std::size_t(j)].samples.size() != N)
+      throw SolveError("phase_resolved_from_runs: the runs have different numbers of samples per wingbeat");
+    out.load_evaluations += 2;
+  }
+  const Configuration config(insect, kin);
+  for (std::size_t k = 0; k < N; ++k) {
+    PhaseSample s;
+    s.time = h0.samples[k].time;
+    s.state = BodyStateVector::Zero();
+    const Wrench w0 = h0.samples[k].total();
+    for (int j = 0; j < 6; ++j) {
+      const double h = j < 3 ? out.velocity_step : out.rate_step;
+      const Wrench wp = plus[std::size_t(j)].samples[k].total(), wm = minus[std::size_t(j)].samples[k].total();
+      s.wrench_si.col(j).head<3>() = (wp.force - wm.force) / (2 * h);
+      s.wrench_si.col(j).tail<3>() = (wp.moment - wm.moment) / (2 * h);
+    }
+    complete_phase_sample(s, config, w0, ref, g);
+    out.samples.push_back(s);
   }
   return out;
 }

@@ -2,6 +2,7 @@
 #pragma once
 #include "core/aero_model.hpp"
 #include "core/case_file.hpp"
+#include "cfd/phase_derivatives.hpp"
 #include "core/derivative_table.hpp"
 
 namespace flapstab {
@@ -17,11 +18,24 @@ struct DerivativeResult {
   Wrench mean_at_trim;                          // mean wrench at the unperturbed state
   double velocity_step = 0, rate_step = 0;      // the steps used (m/s, rad/s)
   int model_runs = 0;
+  // Linearity check per derivative: |(W+ - W0) + (W- - W0)| / |W+ - W-|, the asymmetry of the two one-sided
+  // differences relative to their sum (0 for a linear response; 0 where W+ = W-).
+  Eigen::Matrix<double, 6, 6> asymmetry = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 // Central differences of the cycle-mean wrench about O with steps h U (velocities) and h U / c (rates).
 DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                             const FluidProperties& fluid, double relative_step,
                                             const AeroRunOptions& run = {});
+
+// Phase-resolved derivatives from the same periodic runs as the cycle-averaged ones (any AeroModel; with the CFD
+// model, the runs its cycle-averaged table made): at each of the N phases of the runs' wingbeats,
+// d W(t_k) / d x by central differences of the steady-perturbation runs, combined with the linearised equations of
+// motion about hover with the body held still (as phase_resolved_derivatives about the rest orbit). For the
+// quasi-steady model this is the instantaneous linearisation; for the CFD model it is the periodic response to a
+// steady perturbation, phase by phase (its wake memory included).
+PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
+                                          const ReferenceQuantities& reference, double relative_step,
+                                          double g = standard_gravity);
 
 }  // namespace flapstab

@@ -62,6 +62,31 @@ std::vector<Eigen::MatrixXd> PhaseDerivatives::system_samples(const std::vector<
   return out;
 }
 
+void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wrench& w0,
+                           const ReferenceQuantities& ref, double g) {
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      s.wrench_nd(i, j) = s.wrench_si(i, j) * (j < 3 ? ref.U : ref.U / ref.c) /
+                          (i < 3 ? ref.force_scale() : ref.moment_scale());
+  // Inertial part: d f / d x with the wrench held at w0. The EoM are quadratic in the velocities and
+  // rates (central differences exact to rounding) and smooth in the angles; steps 1e-6 of the scales.
+  const double hv = 1e-6 * ref.U, hw = 1e-6 * ref.U / ref.c, ha = 1e-6;
+  for (int j = 0; j < 8; ++j) {
+    const int idx = linear_state_index[j];
+    const double h = j < 3 ? hv : (j < 6 ? hw : ha);
+    BodyStateVector xp = s.state, xm = s.state;
+    xp(idx) += h;
+    xm(idx) -= h;
+    const BodyStateVector d =
+        (body_state_derivative(config, s.time, xp, w0, g) - body_state_derivative(config, s.time, xm, w0, g)) / (2 * h);
+    s.system_si.col(j) = d.segment<8>(3);
+  }
+  // Aerodynamic coupling: the accelerations respond to the wrench through the inverse mass matrix
+  // (eom_terms' right-hand side holds the wrench with unit coefficient).
+  const EomTerms e = eom_terms(config.mass_state(s.time), s.state, w0, g);
+  s.system_si.block<6, 6>(0, 0) += e.mass_matrix.partialPivLu().solve(s.wrench_si);
+}
+
 PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const std::vector<BodyStateVector>& orbit,
                                             const ReferenceQuantities& ref, double relative_step, double g) {
   if (orbit.size() < 3) throw SolveError("phase_resolved_derivatives: need at least 3 phases");
@@ -91,27 +116,7 @@ PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const
       s.wrench_si.col(j).head<3>() = (wp.force - wm.force) / (2 * h);
       s.wrench_si.col(j).tail<3>() = (wp.moment - wm.moment) / (2 * h);
     }
-    for (int i = 0; i < 6; ++i)
-      for (int j = 0; j < 6; ++j)
-        s.wrench_nd(i, j) = s.wrench_si(i, j) * (j < 3 ? ref.U : ref.U / ref.c) /
-                            (i < 3 ? ref.force_scale() : ref.moment_scale());
-    // Inertial part: d f / d x with the wrench held at w0. The EoM are quadratic in the velocities and
-    // rates (central differences exact to rounding) and smooth in the angles; steps 1e-6 of the scales.
-    const double hv = 1e-6 * ref.U, hw = 1e-6 * ref.U / ref.c, ha = 1e-6;
-    for (int j = 0; j < 8; ++j) {
-      const int idx = linear_state_index[j];
-      const double h = j < 3 ? hv : (j < 6 ? hw : ha);
-      BodyStateVector xp = s.state, xm = s.state;
-      xp(idx) += h;
-      xm(idx) -= h;
-      const BodyStateVector d =
-          (body_state_derivative(config, s.time, xp, w0, g) - body_state_derivative(config, s.time, xm, w0, g)) / (2 * h);
-      s.system_si.col(j) = d.segment<8>(3);
-    }
-    // Aerodynamic coupling: the accelerations respond to the wrench through the inverse mass matrix
-    // (eom_terms' right-hand side holds the wrench with unit coefficient).
-    const EomTerms e = eom_terms(config.mass_state(s.time), s.state, w0, g);
-    s.system_si.block<6, 6>(0, 0) += e.mass_matrix.partialPivLu().solve(s.wrench_si);
+    complete_phase_sample(s, config, w0, ref, g);
     out.samples.push_back(s);
   }
   out.load_evaluations = aero.evaluations() - evals0;

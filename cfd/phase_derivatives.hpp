@@ -73,6 +73,11 @@ struct PhaseDerivatives {
   std::vector<Eigen::MatrixXd> system_samples(const std::vector<int>& states) const;
 };
 
+// Completes a sample whose time, state and wrench_si are set: wrench_nd, and system_si = the linearised equations
+// of motion at (time, state) with the aerodynamic wrench held at w0, plus the mass matrix's response to wrench_si.
+void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wrench& w0,
+                           const ReferenceQuantities& reference, double g = standard_gravity);
+
 // Linearisation of the free system at N phases about a periodic orbit given by its states at
 // t_k = k T / N (orbit.size() = N; an orbit of zeros is hover at rest with the body held still).
 PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const std::vector<BodyStateVector>& orbit,

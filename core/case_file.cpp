@@ -328,6 +328,8 @@ CfdSettings parse_cfd(Section s) {
   d.hover_tolerance = tolerance("hover_tolerance", d.hover_tolerance);
   d.perturbation_tolerance = tolerance("perturbation_tolerance", d.perturbation_tolerance);
   d.max_cycles = s.integer_or("max_cycles", d.max_cycles, 2, 100000);
+  d.trim_tolerance = tolerance("trim_tolerance", d.trim_tolerance);
+  d.trim_iterations = s.integer_or("trim_iterations", d.trim_iterations, 0, 1000);
   if (s.has("steps_per_cycle") && s.has("cfl"))
     s.fail("cfl", "given together with 'steps_per_cycle'", "either a fixed step (steps_per_cycle) or a CFL number");
   d.steps_per_cycle = s.integer_or("steps_per_cycle", d.steps_per_cycle, 1, 100000000);

@@ -43,6 +43,10 @@ struct CfdSettings {
   double hover_tolerance = 0.02;
   double perturbation_tolerance = 0.005;
   int max_cycles = 12;
+  // CFD trim: Broyden iterations on the CFD cycle means from the quasi-steady trim (trim/refine.hpp), until every
+  // residual is below trim_tolerance (fraction of the weight; moments of weight x wing length).
+  double trim_tolerance = 0.02;
+  int trim_iterations = 6;
   int steps_per_cycle = 0;          // > 0: fixed dt = T / steps_per_cycle (phase-locked); 0: adaptive from cfl
   double cfl = 0.5;                 // adaptive step's CFL number
   int fields_per_cycle = 4;         // flow-field outputs per wingbeat (0: none)

@@ -46,6 +46,9 @@ class CfdModel final : public AeroModel {
   WrenchHistory run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
                     const AeroRunOptions& options) const override;
 
+  // Further kinematics the shared grid must hold (e.g. a trim's parameter bounds); call before the first run.
+  void plan_for(std::vector<Kinematics> kinematics) { plan_for_ = std::move(kinematics); }
+
   // Every run so far, the base hover first.
   const std::vector<CfdRunRecord>& records() const;
   // The grid every run shares (after the first run), and the reference continuation's cycle means.
@@ -57,6 +60,7 @@ class CfdModel final : public AeroModel {
   Case case_;
   std::ostream* log_;
   std::string cache_;
+  std::vector<Kinematics> plan_for_;
   std::unique_ptr<State> st_;
 };
 

@@ -36,7 +36,14 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion,
 }
 
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMotion>& motions, int cycles_override) {
+  return plan_cfd(c, std::vector<Kinematics>{kin}, motions, cycles_override);
+}
+
+CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const std::vector<BodyMotion>& motions,
+                 int cycles_override) {
   if (motions.empty()) throw std::invalid_argument("plan_cfd: no motion");
+  if (kinematics.empty()) throw std::invalid_argument("plan_cfd: no kinematics");
+  const Kinematics& kin = kinematics.front();
   const CfdSettings& s = c.aero.cfd;
   const std::string& file = c.path;
   CfdPlan p;
@@ -63,17 +70,20 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMot
   // Swept volume: every vertex of every part over one wingbeat (the grid is fixed to the body, so body motions
   // do not move the insect in it).
   BoundingBox box;
-  const InsectMotion im(config, BodyMotion{});
-  constexpr int samples = 64;
-  for (int k = 0; k <= samples; ++k) {
-    const double t = p.period * k / samples;
-    const auto parts = im.parts(t);
-    for (int i = 0; i < 3; ++i)
-      for (const Vec3& v : ref[std::size_t(i)].vertices) {
-        const Vec3 x = parts[std::size_t(i)].pose.apply(v);
-        box.add(x);
-        if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, parts[std::size_t(i)].velocity.at(x).norm());
-      }
+  for (const Kinematics& k : kinematics) {
+    const Configuration conf(c.insect, k);
+    const InsectMotion im(conf, BodyMotion{});
+    constexpr int samples = 64;
+    for (int j = 0; j <= samples; ++j) {
+      const double t = k.period() * j / samples;
+      const auto parts = im.parts(t);
+      for (int i = 0; i < 3; ++i)
+        for (const Vec3& v : ref[std::size_t(i)].vertices) {
+          const Vec3 x = parts[std::size_t(i)].pose.apply(v);
+          box.add(x);
+          if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, parts[std::size_t(i)].velocity.at(x).norm());
+        }
+    }
   }
   p.swept_lo = box.lo;
   p.swept_hi = box.hi;

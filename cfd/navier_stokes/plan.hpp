@@ -44,6 +44,11 @@ CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion,
 // so it is the same for every motion; the CFL estimate of a fixed step takes the fastest far field of the motions.
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const std::vector<BodyMotion>& motions, int cycles_override = 0);
 
+// One grid for several kinematics (a trim or control campaign): the swept volume is the union over `kinematics`
+// (the first sets the period and the time step).
+CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const std::vector<BodyMotion>& motions,
+                 int cycles_override = 0);
+
 // The plan's grid.
 Grid plan_grid(const CfdPlan& plan);
 // Cells and extents of a grid, exactly (checkpoints compare it).

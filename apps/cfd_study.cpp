@@ -1,0 +1,237 @@
+// Stability from the Navier-Stokes model (cfd_study.hpp).
+#include "apps/cfd_study.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <ostream>
+#include <fmt/format.h>
+
+#include "apps/results_json.hpp"
+#include "cfd/aero_factory.hpp"
+#include "cfd/navier_stokes/observers.hpp"
+#include "cfd/navier_stokes/run.hpp"
+#include "core/errors.hpp"
+#include "stability/analysis.hpp"
+#include "trim/refine.hpp"
+
+namespace flapstab {
+
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+const char* row_names = "XYZLMN";
+const char* col_names[6] = {"u", "v", "w", "p", "q", "r"};
+
+// Before any CFD run: every derivative column must move the loads by well more than the periodic convergence
+// resolves. Predicted change of column j: max over rows of |dW_i/dx_j h_j| / scale_i (scale: weight, weight x c);
+// it must reach 10 x perturbation_tolerance (the converged differences then carry at most ~10 % of error).
+void check_resolution(const Case& c, const DerivativeResult& qs) {
+  const double W = c.insect.weight(), tol = c.aero.cfd.perturbation_tolerance;
+  std::string bad;
+  double worst = 1e300;
+  for (int j = 0; j < 6; ++j) {
+    const double h = j < 3 ? qs.velocity_step : qs.rate_step;
+    double r = 0;
+    for (int i = 0; i < 6; ++i)
+      r = std::max(r, std::abs(qs.si(i, j) * h) / (i < 3 ? W : W * c.insect.wing.mean_chord));
+    if (r < 10 * tol) {
+      bad += fmt::format("{}{}: {:.3g} of the weight", bad.empty() ? "" : ", ", col_names[j], r);
+      worst = std::min(worst, r);
+    }
+  }
+  if (!bad.empty())
+    throw InputError(c.path, "derivatives.relative_step",
+                     fmt::format("the step {:g} is too small for the CFD runs to resolve: the largest load change the "
+                                 "quasi-steady model predicts per column ({}) is below 10 x "
+                                 "aero.cfd.perturbation_tolerance = {:.3g}",
+                                 c.derivatives.relative_step, bad, 10 * tol),
+                     fmt::format("relative_step >= {:.3g}, or a smaller aero.cfd.perturbation_tolerance",
+                                 c.derivatives.relative_step * 10 * tol / worst));
+}
+
+FloquetAnalysis floquet_of(const PhaseDerivatives& ph, const std::string& name, const std::vector<int>& idx,
+                           const std::vector<std::string>& states) {
+  const PeriodicMatrixSpline A(ph.period, ph.system_samples(idx));
+  const MonodromyResult m = monodromy([&](double t) { return A(t); }, Eigen::Index(idx.size()), ph.period);
+  return floquet_analysis(name, states, m.monodromy, ph.period, nondimensional_state_scale(states, ph.reference),
+                          ph.reference);
+}
+
+std::string fmt_c(std::complex<double> z) {
+  if (std::abs(z.imag()) < 1e-12) return fmt::format("{:+.4f}", z.real());
+  return fmt::format("{:+.4f} {} {:.4f}i", z.real(), z.imag() < 0 ? "-" : "+", std::abs(z.imag()));
+}
+
+}  // namespace
+
+CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
+  const auto t0 = clock_type::now();
+  CfdStudy s;
+  auto stage = [&](const std::string& name, clock_type::time_point since, int runs) {
+    s.stages.push_back({name, std::chrono::duration<double>(clock_type::now() - since).count(), runs});
+  };
+  // 1. Quasi-steady trim and derivatives: the start and the resolution check.
+  Case qc = c;
+  qc.aero.model = "quasi-steady";
+  const auto qs_model = make_aero_model(qc);
+  auto t = clock_type::now();
+  s.qs_trim = trim_hover(qc, *qs_model);
+  if (!s.qs_trim.converged)
+    throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
+                                 s.qs_trim.message));
+  s.qs_at_start = cycle_averaged_derivatives(*qs_model, c.insect, s.qs_trim.kinematics, c.fluid,
+                                             c.derivatives.relative_step);
+  check_resolution(c, s.qs_at_start);
+  stage("quasi-steady trim and derivatives", t, 0);
+
+  // 2. The plan: grid, cost of a step, runs and wingbeats.
+  s.plan = ns::plan_cfd(c, trim_extreme_kinematics(c, s.qs_trim), {BodyMotion{}});
+  if (s.plan.steps_per_cycle <= 0)
+    throw InputError(c.path, "aero.cfd.steps_per_cycle",
+                     "the CFD stability chain runs periodic wingbeats with a fixed, phase-locked time step; none is set",
+                     "steps_per_cycle = N, e.g. 400");
+  ns::CfdRunOptions dry;
+  dry.dry_run = true;
+  const ns::CfdResult d = ns::run_cfd(c, s.qs_trim.kinematics, BodyMotion{}, dry);
+  s.cells = ns::plan_grid(s.plan).cells();  // the campaign's grid holds every trim kinematics: scale the timing
+  s.seconds_per_step_estimate = d.seconds_per_step_estimate * double(s.cells) / double(d.cells);
+  const CfdSettings& cs = c.aero.cfd;
+  const int runs_max = 1 + cs.trim_iterations + 12;
+  const int typical = std::max(2, cs.cycles) + cs.max_cycles / 2 + 3 * (cs.trim_iterations / 2 + 12);
+  const int most = cs.max_cycles * (2 + cs.trim_iterations + 12);
+  const double per_cycle = s.seconds_per_step_estimate * s.plan.steps_per_cycle;
+  if (log)
+    *log << fmt::format(
+        "cfd study: {} ({}), grid {} cells ({:.1f} per mean chord), {} steps per wingbeat, {:.3g} s per step: up to {} "
+        "CFD runs (the hover, <= {} trim iterations, 12 derivative runs) of 2 to {} wingbeats each plus the "
+        "continued hover; about {} wingbeats = {} (at most {} wingbeats = {}). Finished runs are kept in {}\n",
+        c.insect.name, c.path, s.cells, s.plan.chord_cells, s.plan.steps_per_cycle, s.seconds_per_step_estimate,
+        runs_max, cs.trim_iterations, cs.max_cycles, typical, ns::fmt_seconds(typical * per_cycle), most,
+        ns::fmt_seconds(most * per_cycle), cache.empty() ? std::string("memory only") : cache)
+         << std::flush;
+
+  // 3. CFD trim from the quasi-steady one.
+  ns::CfdModel cfd(c, log, cache);
+  cfd.plan_for(trim_extreme_kinematics(c, s.qs_trim));
+  t = clock_type::now();
+  std::size_t before = 0;
+  s.trim = refine_trim(c, cfd, *qs_model, s.qs_trim, RefineSettings{cs.trim_tolerance, cs.trim_iterations}, log);
+  stage("hover from rest and CFD trim", t, int(cfd.records().size() - before));
+  if (!s.trim.converged) s.notices.push_back("CFD trim: " + s.trim.message);
+
+  // 4. CFD derivatives at the CFD trim, and the phase-resolved A(t) from the same runs.
+  before = cfd.records().size();
+  t = clock_type::now();
+  s.derivatives = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step);
+  s.derivatives.table.source = "flapstab CFD cycle-averaged derivatives (navier-stokes-ib), from the kept hover state";
+  s.phase = phase_resolved_from_runs(cfd, c.insect, s.trim.kinematics, s.derivatives.table.reference,
+                                     c.derivatives.relative_step);
+  stage("CFD derivatives (12 runs) and phase-resolved A(t)", t, int(cfd.records().size() - before));
+  s.qs = cycle_averaged_derivatives(*qs_model, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step);
+  for (const auto& r : cfd.records())
+    if (!r.converged)
+      s.notices.push_back(fmt::format("CFD run '{}' did not converge in {} wingbeats (last change {:.3g})", r.label,
+                                      r.cycles.size(), r.final_change()));
+
+  // 5. Floquet analysis of the CFD A(t).
+  try {
+    s.floquet_longitudinal = floquet_of(s.phase, "longitudinal", {0, 2, 4, 7}, {"u", "w", "q", "theta"});
+    s.floquet_lateral = floquet_of(s.phase, "lateral", {1, 3, 5, 6}, {"v", "p", "r", "phi"});
+  } catch (const std::exception& e) {
+    s.notices.push_back(std::string("Floquet analysis of the CFD A(t) failed: ") + e.what());
+  }
+  s.history = cfd.run(c.insect, s.trim.kinematics, BodyMotion{}, AeroRunOptions{});
+  s.runs = cfd.records();
+  s.reference = cfd.reference_cycles();
+  s.wall_time_s = std::chrono::duration<double>(clock_type::now() - t0).count();
+  return s;
+}
+
+nlohmann::json cfd_study_json(const CfdStudy& s) {
+  using nlohmann::json;
+  json runs = json::array();
+  for (const auto& r : s.runs) {
+    json cyc = json::array();
+    for (const auto& k : r.cycles)
+      cyc.push_back({{"cycle", k.cycle},
+                     {"mean_force_N", {k.mean.force.x(), k.mean.force.y(), k.mean.force.z()}},
+                     {"mean_moment_N_m", {k.mean.moment.x(), k.mean.moment.y(), k.mean.moment.z()}},
+                     {"change", k.change}});
+    runs.push_back({{"label", r.label}, {"cycles", r.cycles.size()}, {"converged", r.converged},
+                    {"final_change", r.final_change()}, {"wall_s", r.wall_seconds}, {"reused", r.reused},
+                    {"history", cyc}});
+  }
+  json ref = json::array();
+  for (const auto& k : s.reference)
+    ref.push_back({{"cycle", k.cycle}, {"mean_force_N", {k.mean.force.x(), k.mean.force.y(), k.mean.force.z()}},
+                   {"mean_moment_N_m", {k.mean.moment.x(), k.mean.moment.y(), k.mean.moment.z()}}});
+  json stages = json::array();
+  for (const auto& st : s.stages) stages.push_back({{"stage", st.name}, {"wall_s", st.seconds}, {"cfd_runs", st.runs}});
+  auto floq = [](const std::optional<FloquetAnalysis>& f) -> json {
+    if (!f) return nullptr;
+    json mu = json::array(), ex = json::array();
+    for (std::size_t i = 0; i < f->multipliers.size(); ++i) {
+      mu.push_back({f->multipliers[i].real(), f->multipliers[i].imag()});
+      ex.push_back({f->exponents_per_wingbeat[i].real(), f->exponents_per_wingbeat[i].imag()});
+    }
+    return {{"states", f->state_order}, {"multipliers", mu}, {"exponents_per_wingbeat", ex}};
+  };
+  return {{"grid", {{"cells", s.cells}, {"cells_per_mean_chord", s.plan.chord_cells},
+                    {"fine_spacing_m", s.plan.h_actual}, {"steps_per_cycle", s.plan.steps_per_cycle},
+                    {"reynolds", s.plan.reynolds}, {"seconds_per_step_estimate", s.seconds_per_step_estimate}}},
+          {"quasi_steady_trim", trim_json(s.qs_trim)},
+          {"quasi_steady_derivatives", derivatives_json(s.qs)},
+          {"runs", runs},
+          {"continued_hover", ref},
+          {"stages", stages},
+          {"phase_resolved", {{"phases", s.phase.samples.size()}, {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}}},
+          {"floquet_longitudinal", floq(s.floquet_longitudinal)},
+          {"floquet_lateral", floq(s.floquet_lateral)},
+          {"notices", s.notices},
+          {"wall_s", s.wall_time_s}};
+}
+
+std::string cfd_study_markdown(const CfdStudy& s) {
+  std::string m = "## Navier-Stokes (CFD) stability\n\n";
+  m += fmt::format("Grid: {} cells, {:.1f} cells per mean chord (fine spacing {:.4g} m), Re = {:.4g}, {} steps per "
+                   "wingbeat. Every run starts from one kept periodic hover state; perturbed runs are measured against "
+                   "the continued hover.\n\n",
+                   s.cells, s.plan.chord_cells, s.plan.h_actual, s.plan.reynolds, s.plan.steps_per_cycle);
+  m += "| run | wingbeats | converged | final change (of weight) | wall time |\n|---|---|---|---|---|\n";
+  for (const auto& r : s.runs)
+    m += fmt::format("| {} | {} | {} | {} | {} |\n", r.label, r.cycles.size(), r.converged ? "yes" : "**no**",
+                     r.final_change() < 0 ? std::string("-") : fmt::format("{:.2e}", r.final_change()),
+                     r.reused ? std::string("reused") : ns::fmt_seconds(r.wall_seconds));
+  m += "\n| stage | wall time | CFD runs |\n|---|---|---|\n";
+  for (const auto& st : s.stages) m += fmt::format("| {} | {} | {} |\n", st.name, ns::fmt_seconds(st.seconds), st.runs);
+  m += fmt::format("\nCFD trim ({}): ", s.trim.message);
+  for (const auto& p : s.trim.parameters)
+    m += fmt::format("{} = {:.3f} {} (quasi-steady {:.3f}); ", p.label, p.value, p.unit, p.initial);
+  m += fmt::format("residual force {:.2e} x weight, moment {:.2e} x weight x R.\n\n", s.trim.relative_force_residual,
+                   s.trim.relative_moment_residual);
+  m += "Cycle-averaged derivatives (non-dimensional), CFD / quasi-steady at the same kinematics, and the CFD "
+       "linearity asymmetry:\n\n| | u | v | w | p | q | r |\n|---|---|---|---|---|---|---|\n";
+  for (int i = 0; i < 6; ++i) {
+    m += fmt::format("| {} ", row_names[i]);
+    for (int j = 0; j < 6; ++j)
+      m += fmt::format("| {:+.4f} / {:+.4f} ({:.0f} %) ", s.derivatives.table.nd(i, j), s.qs.table.nd(i, j),
+                       100 * s.derivatives.asymmetry(i, j));
+    m += "|\n";
+  }
+  const auto& n = s.derivatives.table.nd;
+  m += fmt::format("\nHover pattern (Sun & Xiong 2005; Sun, Wang & Xiong 2007): X_u < 0: {}; M_u > 0: {}; Z_w < 0: {}; "
+                   "M_q < 0: {}.\n",
+                   n(0, 0) < 0 ? "yes" : "**no**", n(4, 0) > 0 ? "yes" : "**no**", n(2, 2) < 0 ? "yes" : "**no**",
+                   n(4, 4) < 0 ? "yes" : "**no**");
+  for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral}) {
+    if (!*f) continue;
+    m += fmt::format("\nFloquet multipliers of the CFD A(t), {} [{}]:", (*f)->name, fmt::join((*f)->state_order, ", "));
+    for (const auto& mu : (*f)->multipliers) m += fmt::format(" {} (|mu| {:.4f});", fmt_c(mu), std::abs(mu));
+    m += "\n";
+  }
+  for (const auto& note : s.notices) m += "\n- " + note;
+  return m + "\n";
+}
+
+}  // namespace flapstab
