@@ -323,8 +323,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                                      "the base hover", out),
                          "a larger fine_margin_R, so that one grid holds every kinematics of the analysis");
     }
-    say(fmt::format("cfd model: run {} ({}) from the kept hover state, until its difference from the continued hover "
-                    "changes by less than {:g} of the weight per wingbeat\n",
+    say(fmt::format("cfd model: run {} ({}) from the kept hover state, until the standard error of its mean difference "
+                    "from the continued hover (second half of its wingbeats) is below {:g} of the weight\n",
                     number, label, st.perturbed_settings.tolerance));
     const auto t0 = clock_type::now();
     CfdPlan plan = st.plan;  // the same grid; the time step of these kinematics' wingbeat
@@ -332,7 +332,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     plan.dt = plan.period / plan.steps_per_cycle;
     Simulation sim(c, kin, motion, plan);
     sim.restore(st.hover_state, BodyMotion{});
-    Wrench previous;
+    std::vector<std::vector<CfdLoadRow>> history;  // d at every phase, per wingbeat
     for (int k = 1; k <= st.perturbed_settings.max_cycles; ++k) {
       std::vector<CfdLoadRow> rows;
       try {
@@ -367,20 +367,41 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         }
       }
       const auto& ref = st.ref_rows[std::size_t(k - 1)];
-      diff.clear();
-      for (int i = 0; i < n; ++i) diff.push_back(combine(rows[std::size_t(i)], ref[std::size_t(i)], -1));
+      std::vector<CfdLoadRow> dk;
+      for (int i = 0; i < n; ++i) dk.push_back(combine(rows[std::size_t(i)], ref[std::size_t(i)], -1));
+      history.push_back(dk);
       CycleRecord cr;
       cr.cycle = k;
       cr.mean = mean_of(rows);
-      const Wrench d = mean_of(diff);
-      if (k > 1) cr.change = cycle_change(d, previous, st.perturbed_settings);
-      previous = d;
+      const Wrench d = mean_of(dk);
+      // The window: the second half of the wingbeats so far (the start-up of the perturbation left out); its
+      // mean difference and the standard error of that mean.
+      const int first = k / 2 + 1, count = k - first + 1;
+      Wrench sum;
+      for (int j = first; j <= k; ++j) sum += mean_of(history[std::size_t(j - 1)]);
+      const Wrench avg{sum.force / count, sum.moment / count};
+      if (count >= 2) {
+        Vec3 vf = Vec3::Zero(), vm = Vec3::Zero();
+        for (int j = first; j <= k; ++j) {
+          const Wrench e = mean_of(history[std::size_t(j - 1)]);
+          vf += (e.force - avg.force).cwiseAbs2();
+          vm += (e.moment - avg.moment).cwiseAbs2();
+        }
+        const double sf = std::sqrt(vf.sum() / (count - 1) / count), sm = std::sqrt(vm.sum() / (count - 1) / count);
+        cr.change = std::max(sf / st.perturbed_settings.force_scale, sm / st.perturbed_settings.moment_scale);
+      }
+      diff.assign(std::size_t(n), CfdLoadRow{});
+      for (int j = first; j <= k; ++j)
+        for (int i = 0; i < n; ++i) diff[std::size_t(i)] = combine(diff[std::size_t(i)], history[std::size_t(j - 1)][std::size_t(i)], 1.0 / count);
+      for (int i = 0; i < n; ++i) diff[std::size_t(i)].time = rows[std::size_t(i)].time, diff[std::size_t(i)].step = rows[std::size_t(i)].step;
       rec.cycles.push_back(cr);
       say(fmt::format("  wingbeat {:>2}: difference from the hover dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, dM = ({:+.4e}, "
-                      "{:+.4e}, {:+.4e}) N m, change {}\n",
-                      k, d.force.x(), d.force.y(), d.force.z(), d.moment.x(), d.moment.y(), d.moment.z(),
+                      "{:+.4e}, {:+.4e}) N m; mean of wingbeats {}-{}: dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, standard "
+                      "error {}\n",
+                      k, d.force.x(), d.force.y(), d.force.z(), d.moment.x(), d.moment.y(), d.moment.z(), first, k,
+                      avg.force.x(), avg.force.y(), avg.force.z(),
                       cr.change < 0 ? std::string("-") : fmt::format("{:.2e}", cr.change)));
-      if (k >= st.perturbed_settings.min_cycles && cr.change >= 0 && cr.change < st.perturbed_settings.tolerance) {
+      if (cr.change >= 0 && cr.change < st.perturbed_settings.tolerance) {
         rec.converged = true;
         break;
       }

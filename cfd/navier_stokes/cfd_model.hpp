@@ -6,11 +6,13 @@
 //    (max_cycles at most); that state is kept. Its last wingbeat is the hover's answer.
 // 2. Reference: the hover continued from the kept state, wingbeat by wingbeat, as far as any perturbed run goes.
 // 3. Every other request (a steady body motion, other kinematics, or both) starts from the kept hover state on
-//    the same grid (it is fixed to the body, cfd/navier_stokes/insect_motion.hpp) and runs until the change of its
-//    difference from the reference at the same wingbeat, d_k = W_k - W_ref,k, is below perturbation_tolerance
-//    (at least 2 wingbeats). Its answer is the base hover's last wingbeat plus d at every phase. The hover's own
-//    slow drift (the wake still developing) is common to both and cancels in d, and central differences of these
-//    answers difference the d's only.
+//    the same grid (it is fixed to the body, cfd/navier_stokes/insect_motion.hpp). After wingbeat k its
+//    difference from the reference at the same wingbeat, d_k = W_k - W_ref,k, is averaged over the second half of
+//    its wingbeats (k/2 + 1 .. k: the perturbation's start-up left out); the run stops when the standard error of
+//    that mean is below perturbation_tolerance (at least 3 wingbeats, so 2 in the window). Its answer is the base
+//    hover's last wingbeat plus the window's mean d at every phase. The hover's own drift is common to both and
+//    cancels in d; the wingbeat-to-wingbeat scatter that does not (coarse grids at Re ~ 1000 are close to
+//    chaotic) is averaged down and reported as the standard error.
 // Tolerances: fractions of the weight (forces) and of weight x mean chord (moments). Each run reports its cycles,
 // final change and wall time (records()); with a cache directory every finished run and the kept states are saved
 // there and reused when the same case is run again (a killed analysis resumes without recomputing).
@@ -29,7 +31,9 @@ struct CfdRunRecord {
   std::string label;              // "hover", or the motion / kinematics change
   BodyMotion motion;
   bool other_kinematics = false;  // kinematics differ from the base hover's
-  std::vector<CycleRecord> cycles;  // cycle means of the run; change: of the run itself (hover) or of d (others)
+  // Cycle means of the run; change: cycle-to-cycle change (hover), or the standard error of the window's mean d
+  // (perturbed runs), fractions of the weight (moments of weight x mean chord).
+  std::vector<CycleRecord> cycles;
   bool converged = false;
   double wall_seconds = 0;
   bool reused = false;            // read from the cache directory

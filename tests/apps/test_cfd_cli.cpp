@@ -164,5 +164,27 @@ TEST(CfdCli, HelpDescribesTheOptions) {
     EXPECT_NE(r.out.find(k), std::string::npos) << k << "\n" << r.out;
 }
 
+
+// The CFD stability chain refuses, before any CFD run, a derivative step whose load changes (predicted by the
+// quasi-steady model) the periodic convergence cannot resolve: exit 2, the key and the numbers, nothing written.
+TEST(CfdCli, DerivativeStepTooSmallForTheCfdRunsIsBadInput) {
+  std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 60\nperturbation_tolerance = 0.005\n");
+  text += "\n[derivatives]\nrelative_step = 0.001\n";
+  const std::string path = write_temp("cfdcli_step.toml", text);
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_step_dir";
+  fs::remove_all(dir);
+  const std::string errfile = write_temp("cfd_step_stderr.txt", "");
+  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() + " 2> " +
+                              errfile).c_str());
+  std::ifstream in(errfile);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string err = ss.str();
+  EXPECT_EQ(WEXITSTATUS(rc), 2) << err;
+  EXPECT_NE(err.find("derivatives.relative_step"), std::string::npos) << err;
+  EXPECT_NE(err.find("10 x aero.cfd.perturbation_tolerance"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "cfd_runs")) << err;
+}
+
 }  // namespace
 }  // namespace flapstab
