@@ -86,7 +86,18 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   stage("quasi-steady trim and derivatives", t, 0);
 
   // 2. The plan: grid, cost of a step, runs and wingbeats.
-  s.plan = ns::plan_cfd(c, trim_extreme_kinematics(c, s.qs_trim), {BodyMotion{}});
+  // The derivative runs' far fields (|V| + |Omega| r) enter the fixed step's CFL estimate.
+  std::vector<BodyMotion> motions{BodyMotion{}};
+  for (int j = 0; j < 6; ++j) {
+    BodyMotion m;
+    (j < 3 ? m.velocity : m.rate)(j % 3) = j < 3 ? s.qs_at_start.velocity_step : s.qs_at_start.rate_step;
+    motions.push_back(m);
+  }
+  s.plan = ns::plan_cfd(c, trim_extreme_kinematics(c, s.qs_trim), motions);
+  for (const auto& w : s.plan.warnings) {
+    if (log) *log << "cfd study: warning: " << w << "\n";
+    s.notices.push_back("CFD plan: " + w);
+  }
   if (s.plan.steps_per_cycle <= 0)
     throw InputError(c.path, "aero.cfd.steps_per_cycle",
                      "the CFD stability chain runs periodic wingbeats with a fixed, phase-locked time step; none is set",
