@@ -304,7 +304,7 @@ SphereResult run_sphere(double h, double ratio, double t_end, int mesh_n) {
                Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, h, ratio, 8}, false));
   Boundaries bc = Boundaries::all(BC::velocity);
   for (auto& f : bc.face) f.velocity = [U](double) { return Vec3(U, 0, 0); };
-  bc.face[face(0, 1)] = {BC::outflow, {}};
+  bc.face[face(0, 1)] = {BC::outflow, {}, {}};
   SolverOptions opt;
   opt.nu = U * D / 100;
   opt.cfl = 1.2;
@@ -491,7 +491,7 @@ DiskResult run_disk(double h, double t_end) {
                Axis::stretched(StretchedAxis{-4, 4, -0.7, 0.7, h, 1.1, 8}, false));
   Boundaries bc = Boundaries::all(BC::velocity);
   for (auto& f : bc.face) f.velocity = [](double) { return Vec3(1, 0, 0); };
-  bc.face[face(0, 1)] = {BC::outflow, {}};
+  bc.face[face(0, 1)] = {BC::outflow, {}, {}};
   SolverOptions opt;
   opt.nu = 1.0 / 20;
   opt.cfl = 1.2;

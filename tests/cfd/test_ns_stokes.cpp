@@ -36,8 +36,8 @@ StokesResult run_stokes(double h, double ratio, int periods) {
   const Axis y = Axis::stretched(StretchedAxis{0, 1, 0, 2 * delta, h, ratio, 4}, false);
   const Grid g(Axis::uniform(0, 1, 4, true), y, Axis::uniform(0, 1, 4, true));
   Boundaries bc = Boundaries::all(BC::periodic);
-  bc.face[face(1, 0)] = {BC::velocity, [](double t) { return Vec3(U0 * std::cos(omega * t), 0, 0); }};
-  bc.face[face(1, 1)] = {BC::velocity, {}};
+  bc.face[face(1, 0)] = {BC::velocity, [](double t) { return Vec3(U0 * std::cos(omega * t), 0, 0); }, {}};
+  bc.face[face(1, 1)] = {BC::velocity, {}, {}};
   SolverOptions opt;
   opt.nu = nu;
   // A whole number of steps per period, within the diffusion limit (which is what binds here).
@@ -74,10 +74,10 @@ TEST(NavierStokesStokes, ChannelReachesPoiseuille) {
   const double H = 1, U = 1, nu = U * H / 10;
   const Grid g(Axis::uniform(0, 3 * H, 48, false), Axis::uniform(0, H, 16, false), Axis::uniform(0, H / 8, 1, true));
   Boundaries bc = Boundaries::all(BC::periodic);
-  bc.face[face(0, 0)] = {BC::velocity, [U](double) { return Vec3(U, 0, 0); }};
-  bc.face[face(0, 1)] = {BC::outflow, {}};
-  bc.face[face(1, 0)] = {BC::velocity, {}};
-  bc.face[face(1, 1)] = {BC::velocity, {}};
+  bc.face[face(0, 0)] = {BC::velocity, [U](double) { return Vec3(U, 0, 0); }, {}};
+  bc.face[face(0, 1)] = {BC::outflow, {}, {}};
+  bc.face[face(1, 0)] = {BC::velocity, {}, {}};
+  bc.face[face(1, 1)] = {BC::velocity, {}, {}};
   SolverOptions opt;
   opt.nu = nu;
   opt.poisson.rtol = 1e-8;
