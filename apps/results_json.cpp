@@ -5,19 +5,13 @@
 #include <iterator>
 #include "core/series.hpp"
 
+#include "core/hash.hpp"
+
 namespace flapstab {
 
 using nlohmann::json;
 
-std::string file_hash(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::uint64_t h = 1469598103934665603ULL;
-  for (std::istreambuf_iterator<char> it(in), end; it != end; ++it) {
-    h ^= std::uint8_t(*it);
-    h *= 1099511628211ULL;
-  }
-  return fmt::format("{:016x}", h);
-}
+std::string file_hash(const std::string& path) { return fnv1a64_file(path); }
 
 json matrix_json(const Eigen::MatrixXd& m) {
   json j = json::array();

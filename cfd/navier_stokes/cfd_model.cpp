@@ -14,6 +14,7 @@
 #include "cfd/navier_stokes/run.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "core/hash.hpp"
 
 namespace flapstab::ns {
 
@@ -21,15 +22,6 @@ namespace fs = std::filesystem;
 using clock_type = std::chrono::steady_clock;
 
 namespace {
-
-std::string fnv(const std::string& s) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char ch : s) {
-    h ^= ch;
-    h *= 1099511628211ull;
-  }
-  return fmt::format("{:016x}", h);
-}
 
 // What identifies the insect and its kinematics for the runs (exact decimal images of the values).
 std::string fingerprint(const Insect& insect, const Kinematics& kin) {
@@ -219,7 +211,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     st->base_case.insect = insect;
     st->base_kin = kin;
     st->base_print = print;
-    st->key = fnv(hash + "|" + print);
+    st->key = fnv1a64_hex(hash + "|" + print);
     std::vector<Kinematics> kins{kin};
     kins.insert(kins.end(), plan_for_.begin(), plan_for_.end());
     st->plan = plan_cfd(st->base_case, kins, {BodyMotion{}});
@@ -288,7 +280,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   // 3. A perturbed run from the kept hover state (or its cached result).
   const std::string label = (motion_label(motion).empty() ? std::string() : motion_label(motion)) +
                             (base_kin ? "" : std::string(still(motion) ? "" : ", ") + "other kinematics");
-  const std::string run_key = fnv(st.key + "|" + print + "|" + fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}",
+  const std::string run_key = fnv1a64_hex(st.key + "|" + print + "|" + fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}",
                                   motion.velocity.x(), motion.velocity.y(), motion.velocity.z(), motion.rate.x(),
                                   motion.rate.y(), motion.rate.z()));
   const std::string run_file = file("run_" + run_key + ".json");

@@ -73,35 +73,39 @@ class Checkpointer final : public StepObserver {
   long last_step_ = -1;
 };
 
-// Cell-centred velocity, pressure (Pa), vorticity and Q criterion, per_cycle times per wingbeat (HDF5 + XDMF).
-class FieldOutput final : public StepObserver {
+// An output written per_cycle times per wingbeat (and whenever write() is called).
+class PerCycleOutput : public StepObserver {
  public:
-  FieldOutput(std::string directory, int per_cycle, FieldPrecision precision)
-      : dir_(std::move(directory)), per_cycle_(per_cycle), precision_(precision) {}
-  void write(const Simulation& sim);
+  PerCycleOutput(std::string directory, int per_cycle) : dir_(std::move(directory)), per_cycle_(per_cycle) {}
+  virtual void write(const Simulation& sim) = 0;
   void on_step(const Simulation& sim, const StepReport& r) override {
     if (crossed(per_cycle_, sim.plan().period, r.t_before, r.time)) write(sim);
   }
 
- private:
+ protected:
   std::string dir_;
   int per_cycle_;
+};
+
+// Cell-centred velocity, pressure (Pa), vorticity and Q criterion (HDF5 + XDMF).
+class FieldOutput final : public PerCycleOutput {
+ public:
+  FieldOutput(std::string directory, int per_cycle, FieldPrecision precision)
+      : PerCycleOutput(std::move(directory), per_cycle), precision_(precision) {}
+  void write(const Simulation& sim) override;
+
+ private:
   FieldPrecision precision_;
   std::optional<FieldWriter> writer_;
 };
 
-// The parts' surfaces with their pressure (VTK PolyData series), per_cycle times per wingbeat.
-class SurfaceOutput final : public StepObserver {
+// The parts' surfaces with their pressure (VTK PolyData series).
+class SurfaceOutput final : public PerCycleOutput {
  public:
-  SurfaceOutput(std::string directory, int per_cycle) : dir_(std::move(directory)), per_cycle_(per_cycle) {}
-  void write(const Simulation& sim);
-  void on_step(const Simulation& sim, const StepReport& r) override {
-    if (crossed(per_cycle_, sim.plan().period, r.t_before, r.time)) write(sim);
-  }
+  using PerCycleOutput::PerCycleOutput;
+  void write(const Simulation& sim) override;
 
  private:
-  std::string dir_;
-  int per_cycle_;
   std::optional<SurfaceWriter> writer_;
 };
 

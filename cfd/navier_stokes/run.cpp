@@ -16,21 +16,13 @@
 #include "cfd/navier_stokes/observers.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "core/hash.hpp"
 
 namespace flapstab::ns {
 
 namespace fs = std::filesystem;
 
-std::string case_hash(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::uint64_t h = 1469598103934665603ull;
-  char ch;
-  while (in.get(ch)) {
-    h ^= static_cast<unsigned char>(ch);
-    h *= 1099511628211ull;
-  }
-  return fmt::format("{:016x}", h);
-}
+std::string case_hash(const std::string& path) { return fnv1a64_file(path); }
 
 namespace {
 

@@ -1,6 +1,7 @@
 // The stepping CFD simulation (simulation.hpp).
 #include "cfd/navier_stokes/simulation.hpp"
 
+#include <array>
 #include <cmath>
 #include <optional>
 #include <fmt/format.h>
@@ -71,6 +72,8 @@ struct Simulation::Impl : StageHooks {
   bool exchange = false;
   CfdLoadRow row;
   bool have_row = false;
+  // Volume moments of the closed parts (the body: fixed in the body's frame, so computed once).
+  std::array<std::optional<VolumeMoments>, 3> closed;
 
   double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
@@ -84,6 +87,9 @@ struct Simulation::Impl : StageHooks {
       const auto start = motion.parts(0.0);
       for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
       exchange = c.aero.cfd.loads == "exchange";
+      for (int i = 0; i < 3; ++i)
+        if (!surfaces.reference()[std::size_t(i)].membrane)
+          closed[std::size_t(i)] = volume_moments(surfaces.reference()[std::size_t(i)].transformed(start[std::size_t(i)].pose));
       attach();
     }
   }
@@ -122,11 +128,9 @@ struct Simulation::Impl : StageHooks {
         // In a turning frame the solver's pressure is the reduced one, P = p - rho |Omega x r|^2 / 2: on a closed
         // part the centrifugal pressure adds rho int_V Omega x (Omega x r) dV to the force and rho (S Omega) x Omega
         // to the moment about O (S = int_V r r^T dV). Membranes enclose no volume.
-        const TriangleMesh mesh = ib->surface(i, tb);
-        if (!mesh.membrane) {
-          const VolumeMoments v = volume_moments(mesh);
-          q.pressure_force += rho * W.cross(W.cross(v.first));
-          q.pressure_moment += rho * (v.second * W).cross(W);
+        if (const auto& v = closed[std::size_t(i)]) {
+          q.pressure_force += rho * W.cross(W.cross(v->first));
+          q.pressure_moment += rho * (v->second * W).cross(W);
         }
       }
       if (i > 0) {  // wing's work through its motion relative to the body: -(F . v_c + M_c . omega)

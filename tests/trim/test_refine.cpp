@@ -1,6 +1,8 @@
 // Tests of trim/refine: Broyden's method on an "expensive" model from the trim of a cheap one.
 #include <gtest/gtest.h>
 #include <cmath>
+#include <memory>
+#include <string>
 
 #include "cfd/aero_factory.hpp"
 #include "common/case_text.hpp"
@@ -9,17 +11,31 @@
 namespace flapstab {
 namespace {
 
+// The test moth with the Robofly coefficients (cheap) and with Berman & Wang's (expensive), and the cheap trim.
+struct TwoModels {
+  Case cheap, fine;
+  std::unique_ptr<AeroModel> cheap_model, fine_model;
+  TrimResult start;
+  explicit TwoModels(const std::string& name)
+      : cheap(load_case(testing::write_temp(name, testing::valid_case_text()))), fine(cheap) {
+    fine.aero.quasi_steady.coefficients = "berman-wang";
+    cheap_model = make_aero_model(cheap);
+    fine_model = make_aero_model(fine);
+    start = trim_hover(cheap, *cheap_model);
+  }
+};
+
 // Two quasi-steady models that differ as a CFD model differs from the quasi-steady one (here: the Robofly
 // coefficients as the cheap model, Berman & Wang's as the expensive one). From the cheap trim, Broyden's method with
 // the cheap Jacobian reaches the expensive model's trim: residuals below 1e-6 of the weight within 8 runs, and the
 // parameters agree with Ipopt's trim of the expensive model (the same equations, 3 parameters for 3 equations: a
 // unique root) to 1e-4 deg.
 TEST(RefineTrim, BroydenFromTheCheapTrimReachesTheExpensiveModelsTrim) {
-  const Case cheap = load_case(testing::write_temp("refine_cheap.toml", testing::valid_case_text()));
-  Case fine = cheap;
-  fine.aero.quasi_steady.coefficients = "berman-wang";
-  const auto cheap_model = make_aero_model(cheap), fine_model = make_aero_model(fine);
-  const TrimResult start = trim_hover(cheap, *cheap_model);
+  const TwoModels m("refine_cheap.toml");
+  const Case& fine = m.fine;
+  const auto& fine_model = m.fine_model;
+  const auto& cheap_model = m.cheap_model;
+  const TrimResult& start = m.start;
   ASSERT_TRUE(start.converged);
   const TrimResult direct = trim_hover(fine, *fine_model);
   ASSERT_TRUE(direct.converged);
@@ -40,12 +56,8 @@ TEST(RefineTrim, BroydenFromTheCheapTrimReachesTheExpensiveModelsTrim) {
 
 // No iterations allowed: the start evaluated on the expensive model, reported as not converged with its residual.
 TEST(RefineTrim, ZeroIterationsReportsTheStartsResidual) {
-  const Case cheap = load_case(testing::write_temp("refine_zero.toml", testing::valid_case_text()));
-  Case fine = cheap;
-  fine.aero.quasi_steady.coefficients = "berman-wang";
-  const auto cheap_model = make_aero_model(cheap), fine_model = make_aero_model(fine);
-  const TrimResult start = trim_hover(cheap, *cheap_model);
-  const TrimResult r = refine_trim(fine, *fine_model, *cheap_model, start, RefineSettings{1e-6, 0});
+  const TwoModels m("refine_zero.toml");
+  const TrimResult r = refine_trim(m.fine, *m.fine_model, *m.cheap_model, m.start, RefineSettings{1e-6, 0});
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.model_runs, 1);
   EXPECT_EQ(r.iterations, 0);
