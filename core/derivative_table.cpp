@@ -172,6 +172,73 @@ std::string toml_string(const std::string& s) {
   return out + "\"";
 }
 
+// The reference time of a file's rate derivatives and non-dimensional mass properties ([reference] time).
+enum class TimeReference { chord, wingbeat };
+
+constexpr const char* kTimeExpected =
+    "\"chord\" (t+ = t U / c, rates p c / U; the default) or \"wingbeat\" (t+ = t / T = t n, rates p T)";
+constexpr const char* kMassSets =
+    "either the SI set ([mass] m, Iyy, Ixx, Izz, Ixz in kg and kg m^2; g in [reference]) or the non-dimensional set "
+    "([mass] m_plus, Iyy_plus, Ixx_plus, Izz_plus, Ixz_plus, g_plus), not both";
+
+const std::vector<std::string>& si_mass_keys() {
+  static const std::vector<std::string> k{"m", "Ixx", "Iyy", "Izz", "Ixz"};
+  return k;
+}
+const std::vector<std::string>& nd_mass_keys() {
+  static const std::vector<std::string> k{"m_plus", "Ixx_plus", "Iyy_plus", "Izz_plus", "Ixz_plus", "g_plus"};
+  return k;
+}
+std::vector<std::string> mass_keys() {
+  std::vector<std::string> k = si_mass_keys();
+  k.insert(k.end(), nd_mass_keys().begin(), nd_mass_keys().end());
+  return k;
+}
+
+// The first of `keys` (in that order) present in s; "" when none is.
+std::string first_present(const Section& s, const std::vector<std::string>& keys) {
+  if (!s.present()) return {};
+  for (const auto& k : keys)
+    if (s.table()->get(k)) return k;
+  return {};
+}
+
+TimeReference read_time_reference(const Section& ref) {
+  const toml::node* n = ref.table()->get("time");
+  if (!n) return TimeReference::chord;
+  if (!n->is_string()) ref.fail("time", "is not a string", kTimeExpected);
+  const std::string v = n->as_string()->get();
+  if (v == "chord") return TimeReference::chord;
+  if (v == "wingbeat") return TimeReference::wingbeat;
+  ref.fail("time", "unknown time convention \"" + v + "\"", kTimeExpected);
+}
+
+// Converts what the reader took from the file to the internal convention (docs/derivative-table.md, "Time
+// conventions"): SI mass properties and g, and rate derivatives per q c / U. With k = c / (U T) = c n / U:
+//   rate derivatives (columns p, q, r)  D_chord = D_wingbeat / k      (q+_chord = k q+_wingbeat)
+//   m = m+ (1/2 rho S_t c),   I = I+ (1/2 rho S_t c^3),   g = g+ U^2 / c          (chord)
+//   m = m+ (1/2 rho U S_t T), I = I+ (1/2 rho U^2 S_t c T^2), g = g+ U / T        (wingbeat)
+// Velocity derivatives and control derivatives (per unit of a kinematic parameter) hold no time and are unchanged.
+void to_internal_convention(DerivativeTable& t, TimeReference time, bool nondimensional_mass, double g_plus) {
+  const auto& r = t.reference;
+  const double T = 1.0 / r.frequency;
+  if (time == TimeReference::wingbeat) {
+    const double k = r.c / (r.U * T);
+    t.nd.rightCols(3) /= k;
+  }
+  if (!nondimensional_mass) return;
+  const bool wingbeat = time == TimeReference::wingbeat;
+  const double mass_scale = wingbeat ? 0.5 * r.rho * r.U * r.S_t * T : 0.5 * r.rho * r.S_t * r.c;
+  const double inertia_scale =
+      wingbeat ? 0.5 * r.rho * r.U * r.U * r.S_t * r.c * T * T : 0.5 * r.rho * r.S_t * r.c * r.c * r.c;
+  t.mass.m *= mass_scale;
+  t.mass.Ixx *= inertia_scale;
+  t.mass.Iyy *= inertia_scale;
+  t.mass.Izz *= inertia_scale;
+  t.mass.Ixz *= inertia_scale;
+  t.reference.g = wingbeat ? g_plus * r.U / T : g_plus * r.U * r.U / r.c;
+}
+
 }  // namespace
 
 std::string derivative_name(int row, int col) {
@@ -235,14 +302,43 @@ DerivativeTable read_derivative_table(const std::string& path) {
   t.source = top.optional_string("source").value_or(path);
 
   Section ref = top.sub("reference");
-  ref.reject_unknown({"U", "c", "S_t", "rho", "frequency", "g"});
+  ref.reject_unknown({"time", "U", "c", "S_t", "rho", "frequency", "g"});
+  Section mass = top.sub("mass");
+  mass.reject_unknown(mass_keys(), [](const std::string& k) {
+    return k == "g" ? std::string(": g belongs in [reference] (or give g_plus here with the non-dimensional set)")
+                    : std::string();
+  });
   if (!ref.present()) top.fail("reference", "missing section", "[reference] with U, c, S_t, rho, frequency");
-  t.reference.U = ref.positive("U", "m/s (reference speed 2 Phi n r2)");
-  t.reference.c = ref.positive("c", "m (mean chord)");
-  t.reference.S_t = ref.positive("S_t", "m^2 (area of both wings)");
-  t.reference.rho = ref.positive("rho", "kg/m^3");
-  t.reference.frequency = ref.positive("frequency", "Hz (wingbeat frequency)");
-  t.reference.g = ref.optional_positive("g", "m/s^2").value_or(standard_gravity);
+  const TimeReference time = read_time_reference(ref);
+
+  // Which mass set the file gives: SI ([mass] m, I.., [reference] g) or non-dimensional ([mass] *_plus).
+  const std::string nd_key = first_present(mass, nd_mass_keys());
+  const bool nondimensional = !nd_key.empty();
+  if (nondimensional) {
+    if (const std::string si = first_present(mass, si_mass_keys()); !si.empty())
+      mass.fail(nd_key, "given together with the SI entry mass." + si, kMassSets);
+    if (ref.table()->get("g"))
+      ref.fail("g", "given together with the non-dimensional mass set (mass." + nd_key + ")",
+               "g_plus in [mass] instead of g (" + std::string(kMassSets) + ")");
+  }
+
+  // Every reference quantity is required; the note says what it does in this file (U, c and n also convert the
+  // rate derivatives of a wingbeat table).
+  std::string note, rate_note;
+  if (nondimensional && time == TimeReference::wingbeat)
+    note = "; it turns the non-dimensional mass set into SI: m = m_plus (1/2 rho U S_t T), I = I_plus (1/2 rho U^2 S_t c "
+           "T^2), g = g_plus U / T with T = 1/frequency";
+  else if (nondimensional)
+    note = "; it turns the non-dimensional mass set into SI: m = m_plus (1/2 rho S_t c), I = I_plus (1/2 rho S_t c^3), "
+           "g = g_plus U^2 / c";
+  if (time == TimeReference::wingbeat)
+    rate_note = "; in the wingbeat convention the rate derivatives are converted with c n / U";
+  t.reference.U = ref.positive("U", "m/s (reference speed 2 Phi n r2)" + note + rate_note);
+  t.reference.c = ref.positive("c", "m (mean chord)" + note + rate_note);
+  t.reference.S_t = ref.positive("S_t", "m^2 (area of both wings)" + note);
+  t.reference.rho = ref.positive("rho", "kg/m^3" + note);
+  t.reference.frequency = ref.positive("frequency", "Hz (wingbeat frequency n = 1/T)" + note + rate_note);
+  if (!nondimensional) t.reference.g = ref.optional_positive("g", "m/s^2").value_or(standard_gravity);
 
   Section der = top.sub("derivatives");
   der.reject_unknown({"longitudinal", "lateral", "coupling", "control"}, [](const std::string&) {
@@ -255,28 +351,36 @@ DerivativeTable read_derivative_table(const std::string& path) {
 
   // Roll and yaw inertia are needed (and so required) only where lateral motion is analysed.
   const bool need_lateral_inertia = t.has_lateral || t.has_coupling;
-  Section mass = top.sub("mass");
-  mass.reject_unknown({"m", "Ixx", "Iyy", "Izz", "Ixz"});
-  if (!mass.present()) top.fail("mass", "missing section", "[mass] with m, Iyy (and Ixx, Izz, Ixz for lateral)");
-  t.mass.m = mass.positive("m", "kg");
-  t.mass.Iyy = mass.positive("Iyy", "kg m^2");
+  if (!mass.present())
+    top.fail("mass", "missing section",
+             "[mass] with m, Iyy (and Ixx, Izz, Ixz for lateral), or m_plus, Iyy_plus, g_plus (and Ixx_plus, "
+             "Izz_plus, Ixz_plus)");
+  // Key names and units of the set given; the non-dimensional values are read as such and scaled to SI below.
+  const std::string sfx = nondimensional ? "_plus" : "";
+  const std::string mass_unit = nondimensional ? "units of the mass scale (" + std::string(kDoc) + ")" : "kg";
+  const std::string inertia_unit = nondimensional ? "units of the inertia scale (" + std::string(kDoc) + ")" : "kg m^2";
+  const std::string Ixx = "Ixx" + sfx, Iyy = "Iyy" + sfx, Izz = "Izz" + sfx, Ixz = "Ixz" + sfx;
+  t.mass.m = mass.positive("m" + sfx, mass_unit);
+  t.mass.Iyy = mass.positive(Iyy, inertia_unit);
   if (need_lateral_inertia) {
-    t.mass.Ixx = mass.positive("Ixx", "kg m^2");
-    t.mass.Izz = mass.positive("Izz", "kg m^2");
-    t.mass.Ixz = mass.number("Ixz", "a finite number in kg m^2 (int x z dm)");
+    t.mass.Ixx = mass.positive(Ixx, inertia_unit);
+    t.mass.Izz = mass.positive(Izz, inertia_unit);
+    t.mass.Ixz = mass.number(Ixz, "a finite number in " + inertia_unit + " (int x z dm)");
   } else {
-    t.mass.Ixx = mass.optional_positive("Ixx", "kg m^2").value_or(0.0);
-    t.mass.Izz = mass.optional_positive("Izz", "kg m^2").value_or(0.0);
-    t.mass.Ixz = mass.optional_number("Ixz", "a finite number in kg m^2").value_or(0.0);
+    t.mass.Ixx = mass.optional_positive(Ixx, inertia_unit).value_or(0.0);
+    t.mass.Izz = mass.optional_positive(Izz, inertia_unit).value_or(0.0);
+    t.mass.Ixz = mass.optional_number(Ixz, "a finite number in " + inertia_unit).value_or(0.0);
   }
+  // Both checks are independent of the scale, so they hold for either set.
   if (t.mass.Ixx > 0 && t.mass.Izz > 0 && !(t.mass.Ixx * t.mass.Izz > t.mass.Ixz * t.mass.Ixz))
-    mass.fail("Ixz", fmt::format("makes the inertia matrix not positive definite (Ixx Izz = {} <= Ixz^2 = {})",
-                                 t.mass.Ixx * t.mass.Izz, t.mass.Ixz * t.mass.Ixz),
-              "Ixz^2 < Ixx Izz");
+    mass.fail(Ixz, fmt::format("makes the inertia matrix not positive definite ({} {} = {} <= {}^2 = {})", Ixx, Izz,
+                               t.mass.Ixx * t.mass.Izz, Ixz, t.mass.Ixz * t.mass.Ixz),
+              Ixz + "^2 < " + Ixx + " " + Izz);
   if ((t.mass.Ixx > 0) != (t.mass.Izz > 0))
-    mass.fail(t.mass.Ixx > 0 ? "Izz" : "Ixx", "missing while its partner is given", "both Ixx and Izz, or neither");
+    mass.fail(t.mass.Ixx > 0 ? Izz : Ixx, "missing while its partner is given", "both " + Ixx + " and " + Izz + ", or neither");
   if (t.mass.Ixz != 0 && !(t.mass.Ixx > 0))
-    mass.fail("Ixz", "given without Ixx and Izz", "Ixx and Izz as well");
+    mass.fail(Ixz, "given without " + Ixx + " and " + Izz, Ixx + " and " + Izz + " as well");
+  const double g_plus = nondimensional ? mass.positive("g_plus", "units of the gravity scale (" + std::string(kDoc) + ")") : 0.0;
 
   if (t.has_longitudinal) read_section(lon, longitudinal_derivative_names(), true, t);
   if (t.has_lateral) read_section(lat, lateral_derivative_names(), true, t);
@@ -300,6 +404,7 @@ DerivativeTable read_derivative_table(const std::string& path) {
       t.control.push_back(cd);
     }
   }
+  to_internal_convention(t, time, nondimensional, g_plus);
   return t;
 }
 
@@ -312,13 +417,15 @@ std::string derivative_table_toml(const DerivativeTable& t) {
   s += "#   frequency Hz (wingbeat), g m/s^2; [mass] m kg, Ixx Iyy Izz Ixz kg m^2 about the centre of\n";
   s += "#   mass in these axes, Ixz = int x z dm (Etkin; the inertia tensor holds -Ixz).\n";
   s += "# Derivatives: non-dimensional, e.g. Xu = dX+/du+, Mq = dM+/dq+, with forces / (1/2 rho U^2 S_t),\n";
-  s += "#   moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U, time t+ = t U / c.\n";
+  s += "#   moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U, time t+ = t U / c: the chord\n";
+  s += "#   convention, [reference] time = \"chord\" (the other, \"wingbeat\", has rates * T and t+ = t / T).\n";
   s += "# State orders: longitudinal [u, w, q, theta]; lateral [v, p, r, phi];\n";
   s += "#   6DoF [u, v, w, p, q, r, phi, theta].\n";
   if (!t.source.empty()) s += "source = " + toml_string(t.source) + "\n";
 
   const auto& r = t.reference;
   s += "\n[reference]\n";
+  s += "time = \"chord\"\n";
   s += "U = " + toml_number(r.U) + "\n";
   s += "c = " + toml_number(r.c) + "\n";
   s += "S_t = " + toml_number(r.S_t) + "\n";

@@ -1,10 +1,14 @@
 // The derivative table: reference quantities, mass properties and non-dimensional stability derivatives.
 //
-// File format (TOML, docs/derivative-table.md): [reference] U, c, S_t, rho, frequency;
-// [mass] m, Ixx, Iyy, Izz, Ixz; [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
+// File format (TOML, docs/derivative-table.md): [reference] time, U, c, S_t, rho, frequency, g;
+// [mass] m, Ixx, Iyy, Izz, Ixz (SI) or m_plus, Ixx_plus, Iyy_plus, Izz_plus, Ixz_plus, g_plus (non-dimensional);
+// [derivatives.longitudinal] Xu Xw Xq Zu Zw Zq Mu Mw Mq;
 // [derivatives.lateral] Yv Yp Yr Lv Lp Lr Nv Np Nr; optional [derivatives.coupling] (e.g. Xv, Lu, Mp);
 // optional [derivatives.control.<parameter>] X Y Z L M N per unit of the parameter (e.g. stroke_plane_deg).
-// Dimensional entries SI; derivatives non-dimensional in hover stability axes (docs/derivative-table.md):
+// A file may state its rates and mass parameters with the wingbeat period T as reference time
+// ([reference] time = "wingbeat": q+ = q T, m+ = m / (1/2 rho U S_t T), ..., as Sun & Xiong 2005, J Exp Biol
+// 208:447) or with c / U (time = "chord", the default); the reader converts either to the one internal
+// convention the DerivativeTable holds: SI mass properties and g, derivatives in hover stability axes with
 // forces / (1/2 rho U^2 S_t), moments / (1/2 rho U^2 S_t c), velocities / U, rates * c / U.
 #pragma once
 #include <map>
@@ -55,9 +59,11 @@ struct DerivativeTable {
   double at(const std::string& name) const;
 };
 
-// Reads a derivative table; throws InputError naming the file and key on any problem.
+// Reads a derivative table in either time convention and either mass set, returning it in the internal
+// convention above; throws InputError naming the file and key on any problem.
 DerivativeTable read_derivative_table(const std::string& path);
-// TOML text of the table (with a header comment giving axes, units and scalings).
+// TOML text of the table (with a header comment giving axes, units and scalings), in the internal convention:
+// [reference] time = "chord", SI mass properties.
 std::string derivative_table_toml(const DerivativeTable& table);
 // Writes derivative_table_toml(table) to path atomically (temporary file, then rename).
 void write_derivative_table(const DerivativeTable& table, const std::string& path);
