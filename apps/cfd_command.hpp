@@ -10,10 +10,12 @@ struct CfdCommandOptions {
   bool restart = false;    // --restart: resume from the newest valid checkpoint in DIR
   int cycles = 0;          // --cycles N (> 0 overrides [aero.cfd] cycles)
   bool dry_run = false;    // --dry-run: estimate and checks only, nothing written
+  long steps = 0;          // --steps N: at most N steps now, then a checkpoint (a smoke run; --restart continues)
   bool quiet = false;      // no estimate or progress lines
 };
 
-// Returns the exit status; InputError (exit 2) and SolveError (divergence, exit 3) are thrown.
+// Returns the exit status; InputError (exit 2), SolveError (divergence, exit 3), OutputError (exit 4) and
+// Interrupted (SIGINT/SIGTERM after the checkpoint, exit 128 + signal) are thrown.
 int run_cfd_command(const CfdCommandOptions& o);
 
 }  // namespace flapstab

@@ -232,9 +232,10 @@ int run_fly(const FlightCommandOptions& o) {
   std::string why;
   const auto svg = render_svg(plot, why);
   if (!svg) j["figure_notice"] = why;
-  write_file_atomic(dir + "/trajectory.csv", csv);
-  write_file_atomic(dir + "/run.json", j.dump(2) + "\n");
-  if (svg) write_file_atomic(dir + "/response.svg", *svg);
+  std::vector<std::pair<std::string, std::string>> out = {{dir + "/trajectory.csv", csv},
+                                                          {dir + "/run.json", j.dump(2) + "\n"}};
+  if (svg) out.emplace_back(dir + "/response.svg", *svg);
+  write_files_atomic(out);  // the set as one: all or none
   if (!o.quiet) {
     if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
     fmt::print("  deviation from the orbit: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per wingbeat "
@@ -586,10 +587,11 @@ int run_control_map(const FlightCommandOptions& o) {
     pm.dots.front().title = "averaged stability boundary";
     psvg = render_svg(pm, why);
   }
-  write_file_atomic(dir + "/control_map.json", j.dump(2) + "\n");
-  if (psvg) write_file_atomic(dir + "/control_map_periodic.svg", *psvg);
-  write_file_atomic(dir + "/control_map.csv", csv);
-  if (svg) write_file_atomic(dir + "/control_map.svg", *svg);
+  std::vector<std::pair<std::string, std::string>> out = {{dir + "/control_map.json", j.dump(2) + "\n"},
+                                                          {dir + "/control_map.csv", csv}};
+  if (psvg) out.emplace_back(dir + "/control_map_periodic.svg", *psvg);
+  if (svg) out.emplace_back(dir + "/control_map.svg", *svg);
+  write_files_atomic(out);  // the set as one: all or none
   if (!o.quiet) {
     fmt::print("  open loop (averaged): growth {:+.4f} per wingbeat; neutral axis {:.2f} mm above the CoM ({:.2f} c)\n",
                open_abscissa * T, -na.z_at_com * 1e3, -na.z_at_com / h.derivatives.table.reference.c);

@@ -1,5 +1,6 @@
 // The flapstab command: parses arguments and dispatches to the subcommands in apps/commands.
 #include <CLI/CLI.hpp>
+#include <new>
 #include <fmt/format.h>
 
 #include "apps/cfd_command.hpp"
@@ -55,7 +56,9 @@ int main(int argc, char** argv) {
   CLI::App* cfd = app.add_subcommand(
       "cfd", "Navier-Stokes immersed-boundary run of the case's insect ([aero.cfd] settings): prints the grid, memory "
              "and a time estimate, then writes forces.csv, run.json, fields/, surfaces/ and checkpoints/ into DIR "
-             "(docs/cfd-files.md). Exit status 2 for bad input (nothing written), 3 if the run diverges (the last "
+             "(docs/cfd-files.md); ends with the mean loads of the last complete wingbeat (the start-up wingbeat excluded) "
+             "and forces.svg. Ctrl-C or SIGTERM stops at the end of the step with a checkpoint (exit 130 / 143). "
+             "Exit status 2 for bad input (nothing written), 3 if the run diverges (the last "
              "checkpoint is kept)");
   cfd->add_option("case", co.case_path, "case file (TOML) with an [aero.cfd] table; see docs/case-file.md")
       ->required()->check(CLI::ExistingFile);
@@ -64,6 +67,9 @@ int main(int argc, char** argv) {
                                          "the case file changed); reproduces the uninterrupted run exactly");
   cfd->add_option("--cycles", co.cycles, "wingbeats to run in all (overrides [aero.cfd] cycles)")
       ->check(CLI::Range(1, 100000));
+  cfd->add_option("--steps", co.steps, "run at most N time steps now (a smoke run shorter than a wingbeat), then write "
+                                       "a checkpoint, forces.csv and run.json with status \"stopped\"; --restart continues")
+      ->check(CLI::Range(1L, 100000000L));
   cfd->add_flag("--dry-run", co.dry_run, "build the grid, run the checks, time two steps and print the estimate; "
                                          "write nothing");
   cfd->add_flag("-q,--quiet", co.quiet, "no estimate or progress lines");
@@ -92,7 +98,10 @@ int main(int argc, char** argv) {
   cmap->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
   app.footer("Exit status: 0 success; 1 unexpected failure; 2 bad input (a missing or unreadable file, an invalid "
              "option or key; the message names the file and key, nothing is written); 3 numerical failure (trim or "
-             "cyclic trim not converged, a CFD run diverged; the last CFD checkpoint is kept).");
+             "cyclic trim not converged, a CFD run diverged; the last CFD checkpoint is kept); 4 an output could not be "
+             "written (disk full, read-only or permission denied; the reason is printed, no partial set is left); "
+             "130 / 143 stopped by SIGINT / SIGTERM (a CFD run first writes a checkpoint and forces.csv; resume with "
+             "--restart).");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -120,6 +129,15 @@ int main(int argc, char** argv) {
   } catch (const flapstab::SolveError& e) {
     fmt::print(stderr, "flapstab: error: {}\n", e.what());
     return 3;
+  } catch (const flapstab::OutputError& e) {
+    fmt::print(stderr, "flapstab: error: {}\n", e.what());
+    return 4;
+  } catch (const flapstab::Interrupted& e) {
+    fmt::print(stderr, "flapstab: {}\n", e.what());
+    return 128 + e.signal();
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "flapstab: error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "flapstab: error: {}\n", e.what());
     return 1;

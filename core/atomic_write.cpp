@@ -1,34 +1,169 @@
 // Atomic file output: temporary file + rename.
 #include "core/atomic_write.hpp"
+
+#include <cerrno>
+#include <csignal>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <stdexcept>
+#include <memory>
+#include <regex>
+#include <set>
+#include <sys/file.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include "core/errors.hpp"
 
 namespace flapstab {
 
-void write_file_atomic(const std::string& path, const std::string& content) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
+namespace fs = std::filesystem;
+
+std::string output_failure(const std::string& what, const std::string& path, int err) {
+  return "cannot " + what + " " + path + ": " + (err != 0 ? std::strerror(err) : "unknown error");
+}
+
+namespace {
+
+void make_parent(const fs::path& target) {
   std::error_code ec;
   if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
-  if (ec) throw std::runtime_error("cannot create directory " + target.parent_path().string() + ": " + ec.message());
-  const fs::path tmp = target.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-    out << content;
-    out.flush();
-    if (!out) {
-      fs::remove(tmp, ec);
-      throw std::runtime_error("error writing " + tmp.string());
+  if (ec) throw OutputError(output_failure("create directory", target.parent_path().string(), ec.value()));
+}
+
+std::string temporary_name(const std::string& path) { return path + ".tmp." + std::to_string(::getpid()); }
+
+// Writes content to tmp (created); OutputError naming `path` on failure, with tmp removed.
+void write_temporary(const std::string& tmp, const std::string& path, const std::string& content) {
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) throw OutputError(output_failure("write", path, errno));
+  auto fail = [&](int err) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw OutputError(output_failure("write", path, err));
+  };
+  const char* p = content.data();
+  std::size_t left = content.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail(errno);
     }
+    p += n;
+    left -= std::size_t(n);
   }
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw std::runtime_error("cannot rename " + tmp.string() + " to " + path);
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw OutputError(output_failure("write", path, err));
   }
+}
+
+// An exclusive flock on DIR/.flapstab.lock for the object's lifetime.
+class DirectoryLock {
+ public:
+  explicit DirectoryLock(const std::string& dir) {
+    const std::string path = (fs::path(dir.empty() ? "." : dir) / ".flapstab.lock").string();
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (fd_ < 0) throw OutputError(output_failure("lock", dir.empty() ? "." : dir, errno));
+    while (::flock(fd_, LOCK_EX) != 0)
+      if (errno != EINTR) {
+        const int err = errno;
+        ::close(fd_);
+        throw OutputError(output_failure("lock", dir, err));
+      }
+  }
+  ~DirectoryLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  DirectoryLock(const DirectoryLock&) = delete;
+  DirectoryLock& operator=(const DirectoryLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+void write_files_atomic(const std::vector<std::pair<std::string, std::string>>& files) {
+  std::set<std::string> dirs;
+  for (const auto& [path, content] : files) {
+    make_parent(fs::path(path));
+    dirs.insert(fs::path(path).parent_path().string());
+  }
+  std::vector<std::unique_ptr<DirectoryLock>> locks;  // in sorted order: two sets never wait on each other
+  for (const auto& d : dirs) locks.push_back(std::make_unique<DirectoryLock>(d));
+  std::vector<std::string> written;
+  try {
+    for (const auto& [path, content] : files) {
+      write_temporary(temporary_name(path), path, content);
+      written.push_back(temporary_name(path));
+    }
+  } catch (...) {
+    for (const auto& t : written) ::unlink(t.c_str());
+    throw;
+  }
+  for (std::size_t i = 0; i < files.size(); ++i)
+    if (::rename(written[i].c_str(), files[i].first.c_str()) != 0) {
+      const int err = errno;
+      for (std::size_t k = i; k < written.size(); ++k) ::unlink(written[k].c_str());
+      throw OutputError(output_failure("rename into place", files[i].first, err));
+    }
+}
+
+void write_file_atomic(const std::string& path, const std::string& content) {
+  const fs::path target(path);
+  make_parent(target);
+  const std::string tmp = temporary_name(target.string());
+  write_temporary(tmp, path, content);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw OutputError(output_failure("rename into place", path, err));
+  }
+}
+
+ExclusiveRun::ExclusiveRun(const std::string& directory, const std::string& key) {
+  std::error_code ec;
+  fs::create_directories(directory, ec);
+  if (ec) throw OutputError(output_failure("create directory", directory, ec.value()));
+  const std::string path = (fs::path(directory) / ".flapstab-run.lock").string();
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (fd_ < 0) throw OutputError(output_failure("lock", directory, errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd_);
+    fd_ = -1;
+    if (err == EWOULDBLOCK)
+      throw InputError(directory, key, "another flapstab run is writing into this directory",
+                       "an output directory no running command uses (wait for it, or give another -o)");
+    throw OutputError(output_failure("lock", directory, err));
+  }
+}
+
+ExclusiveRun::~ExclusiveRun() {
+  if (fd_ >= 0) {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+}
+
+int remove_stale_temporaries(const std::string& directory) {
+  static const std::regex re(R"(.+\.tmp\.(\d+))");
+  std::error_code ec;
+  if (!fs::is_directory(directory, ec)) return 0;
+  int removed = 0;
+  for (const auto& e : fs::directory_iterator(directory, ec)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (!std::regex_match(name, m, re)) continue;
+    const long pid = std::stol(m[1].str());
+    const bool alive = pid == long(::getpid()) || ::kill(pid_t(pid), 0) == 0 || errno == EPERM;
+    if (!alive && fs::remove(e.path(), ec)) ++removed;
+  }
+  return removed;
 }
 
 }  // namespace flapstab

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
+#include <optional>
 #include <set>
 #include <toml++/toml.h>
 
@@ -16,6 +17,23 @@ namespace {
 
 // A TOML table with the file and dotted path it came from; remembers which keys were read so
 // that leftovers (typos) can be reported.
+struct SensibleRange {
+  double first, second;
+  const char* why;
+};
+
+// Magnitudes from the smallest flying insects (a 25 ug fairyfly, 0.2 mm wings) to flapping MAVs of a few
+// hundred grams, in air or water; values outside are typing errors (a unit off by 10^3 is still accepted).
+std::optional<SensibleRange> sensible_range(const std::string& unit) {
+  if (unit == "kg") return SensibleRange{1e-10, 1e2, "from a microinsect to a large flapping MAV"};
+  if (unit == "m") return SensibleRange{1e-6, 1e2, "a length of an insect or a flapping MAV"};
+  if (unit == "kg m^2") return SensibleRange{1e-25, 1e2, "a moment of inertia of an insect or a flapping MAV"};
+  if (unit == "Hz") return SensibleRange{1e-2, 1e4, "a wingbeat frequency"};
+  if (unit == "kg/m^3") return SensibleRange{1e-3, 2e3, "a fluid density (air 1.2, water 1000)"};
+  if (unit == "m^2/s") return SensibleRange{1e-8, 1.0, "a kinematic viscosity (air 1.5e-5, water 1e-6)"};
+  return std::nullopt;
+}
+
 class Section {
  public:
   Section(const toml::table* t, std::string file, std::string path)
@@ -53,7 +71,20 @@ class Section {
   }
   double positive(const std::string& k, const std::string& unit) {
     const double v = number(k, "a positive number in " + unit);
-    if (!(v > 0)) fail(k, fmt::format("must be positive, got {}", v), "a positive number in " + unit);
+    if (!(v > 0)) fail(k, fmt::format("must be positive, got {:.6g}", v), "a positive number in " + unit);
+    // Physically sensible magnitudes: a finite but absurd value (1e300 kg) would fail much later with a message
+    // that points elsewhere (NaN residuals, "widen the bounds").
+    if (const auto r = sensible_range(unit); r && (v < r->first || v > r->second))
+      fail(k, fmt::format("{:.6g} {} is outside the physically sensible range", v, unit),
+           fmt::format("a value in [{:g}, {:g}] {} ({})", r->first, r->second, unit, r->why));
+    return v;
+  }
+  // A positive number within [lo, hi] (a setting's useful range).
+  double positive_in(const std::string& k, double dflt, double lo, double hi, const std::string& what) {
+    if (!has(k)) return (node(k), dflt);
+    const std::string expected = fmt::format("{} in [{:g}, {:g}]", what, lo, hi);
+    const double v = number(k, expected);
+    if (!(v >= lo && v <= hi)) fail(k, fmt::format("out of range: {:.6g}", v), expected);
     return v;
   }
   double positive_or(const std::string& k, double dflt, const std::string& unit) {
@@ -293,7 +324,7 @@ CfdSettings parse_cfd(Section s) {
   CfdSettings d;
   auto margin = [&](const char* k, double dflt) {
     const double v = s.number_or(k, dflt, "a margin >= 0 in wing lengths R");
-    if (!(v >= 0) || v > 100) s.fail(k, fmt::format("out of range: {}", v), "a margin in [0, 100] wing lengths R");
+    if (!(v >= 0) || v > 100) s.fail(k, fmt::format("out of range: {:.6g}", v), "a margin in [0, 100] wing lengths R");
     return v;
   };
   d.upstream_R = margin("upstream_R", d.upstream_R);
@@ -306,7 +337,7 @@ CfdSettings parse_cfd(Section s) {
     s.fail("cells_per_wing_length", "given together with 'cells_per_chord'", "one of the two");
   auto resolution = [&](const char* k, double dflt) {
     const double v = s.number_or(k, dflt, "a number of cells in [1, 10000]");
-    if (!(v >= 1) || v > 10000) s.fail(k, fmt::format("out of range: {}", v), "a number of cells in [1, 10000]");
+    if (!(v >= 1) || v > 10000) s.fail(k, fmt::format("out of range: {:.6g}", v), "a number of cells in [1, 10000]");
     return v;
   };
   d.cells_per_chord = resolution("cells_per_chord", d.cells_per_chord);
@@ -322,7 +353,7 @@ CfdSettings parse_cfd(Section s) {
   d.cycles = s.integer_or("cycles", d.cycles, 1, 100000);
   auto tolerance = [&](const char* k, double dflt) {
     const double v = s.number_or(k, dflt, "a fraction of the weight in (0, 1)");
-    if (!(v > 0 && v < 1)) s.fail(k, fmt::format("out of range: {}", v), "a fraction of the weight in (0, 1)");
+    if (!(v > 0 && v < 1)) s.fail(k, fmt::format("out of range: {:.6g}", v), "a fraction of the weight in (0, 1)");
     return v;
   };
   d.hover_tolerance = tolerance("hover_tolerance", d.hover_tolerance);
@@ -340,9 +371,11 @@ CfdSettings parse_cfd(Section s) {
   d.checkpoints_per_cycle = s.integer_or("checkpoints_per_cycle", d.checkpoints_per_cycle, 0, 100000);
   d.field_precision = s.string("field_precision", false, d.field_precision, {"float64", "float32"});
   d.loads = s.string("loads", false, d.loads, {"exchange", "surface"});
-  d.body_divisions = s.integer_or("body_divisions", d.body_divisions, 2, 1000);
-  d.wing_span_stations = s.integer_or("wing_span_stations", d.wing_span_stations, 2, 10000);
-  d.wing_chord_divisions = s.integer_or("wing_chord_divisions", d.wing_chord_divisions, 1, 10000);
+  // Mesh sizes: the level sets are built from the meshes before the first step, at a cost that grows with the
+  // triangle count (body_divisions = 1000 took 11 min and 4 GB); far beyond what any grid resolves.
+  d.body_divisions = s.integer_or("body_divisions", d.body_divisions, 2, 200);
+  d.wing_span_stations = s.integer_or("wing_span_stations", d.wing_span_stations, 2, 1000);
+  d.wing_chord_divisions = s.integer_or("wing_chord_divisions", d.wing_chord_divisions, 1, 200);
   d.threads = s.integer_or("threads", d.threads, 0, 4096);
   s.reject_unknown();
   return d;
@@ -413,7 +446,7 @@ Case load_case(const std::string& path) {
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});
   c.trim.objective = trim.string("objective", false, "least-change", {"least-change", "min-power"});
-  c.trim.tolerance = trim.positive_or("tolerance", 1e-10, "(relative residual)");
+  c.trim.tolerance = trim.positive_in("tolerance", 1e-10, 1e-14, 0.1, "a relative residual");
   c.trim.max_iterations = trim.integer_or("max_iterations", 200, 1, 100000);
   if (const toml::node* ps = trim.node("parameter")) {
     if (!ps->is_array_of_tables()) trim.fail("parameter", "is not an array of tables", "[[trim.parameter]] entries");
@@ -437,17 +470,17 @@ Case load_case(const std::string& path) {
   trim.reject_unknown();
 
   Section der = top.sub("derivatives", false);
-  c.derivatives.relative_step = der.positive_or("relative_step", 0.01, "(step / reference speed)");
+  c.derivatives.relative_step = der.positive_in("relative_step", 0.01, 1e-6, 0.5, "a step / reference speed");
   if (c.derivatives.relative_step > 0.5) der.fail("relative_step", "too large", "a relative step below 0.5");
   der.reject_unknown();
 
   Section fl = top.sub("flight", false);
   auto& f = c.flight;
   f.dof = fl.string("dof", false, f.dof, {"6dof", "longitudinal", "pitch", "translation"});
-  f.wingbeats = fl.positive_or("wingbeats", f.wingbeats, "wingbeats");
+  f.wingbeats = fl.positive_in("wingbeats", f.wingbeats, 1e-3, 1e5, "a number of wingbeats");
   if (f.wingbeats > 1e5) fl.fail("wingbeats", fmt::format("too many: {}", f.wingbeats), "at most 100000 wingbeats");
   f.samples_per_wingbeat = fl.integer_or("samples_per_wingbeat", f.samples_per_wingbeat, 1, 100000);
-  f.rtol = fl.positive_or("rtol", f.rtol, "(relative tolerance)");
+  f.rtol = fl.positive_in("rtol", f.rtol, 1e-14, 1e-3, "a relative tolerance");
   if (f.rtol < 1e-14 || f.rtol > 1e-3) fl.fail("rtol", fmt::format("out of range: {}", f.rtol), "a tolerance in [1e-14, 1e-3]");
   f.start = fl.string("start", false, f.start, {"periodic-orbit", "rest"});
   Section pert = fl.sub("perturbation", false);
@@ -471,7 +504,7 @@ Case load_case(const std::string& path) {
   k.update = ctl.string("update", false, k.update, {"continuous", "wingbeat"});
   auto latency = [](Section& s, const std::string& key, double dflt) {
     const double v = s.number_or(key, dflt, "a latency >= 0 in s");
-    if (v < 0) s.fail(key, fmt::format("must not be negative, got {}", v), "a latency >= 0 in s");
+    if (v < 0) s.fail(key, fmt::format("must not be negative, got {:.6g}", v), "a latency >= 0 in s");
     if (v > 10) s.fail(key, fmt::format("implausibly long: {} s", v), "a latency below 10 s");
     return v;
   };

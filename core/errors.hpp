@@ -32,4 +32,21 @@ class SolveError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Thrown when an output cannot be written (disk full, read-only file system, permission denied): what() names
+// the path and the operating system's reason. Whatever the command had written of its set is removed.
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Thrown when a run stopped on SIGINT or SIGTERM after saving what it needs to resume (core/interrupt.hpp).
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted(int signal, const std::string& what) : std::runtime_error(what), signal_(signal) {}
+  int signal() const { return signal_; }
+
+ private:
+  int signal_;
+};
+
 }  // namespace flapstab

@@ -272,6 +272,19 @@ std::vector<double> solve_nlopt(TrimProblem& p, const std::vector<double>& x0, c
 
 }  // namespace
 
+std::vector<std::string> TrimResult::active_bounds() const {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const auto& p = parameters[i];
+    const double tol = 1e-6 * std::max(1.0, p.upper - p.lower);
+    if (p.value <= p.lower + tol || p.value >= p.upper - tol)
+      out.push_back(fmt::format("trim.parameter[{}] ({}) at its {} bound {:g} {}", i, p.name,
+                                p.value <= p.lower + tol ? "lower" : "upper", p.value <= p.lower + tol ? p.lower : p.upper,
+                                p.unit));
+  }
+  return out;
+}
+
 TrimResult trim_hover(const Case& c, const AeroModel& model) {
   const auto& specs = c.trim.parameters;
   if (specs.empty())

@@ -31,6 +31,9 @@ struct TrimResult {
   double mean_power = 0;                 // W, aerodynamic
   double weight = 0;                     // N
   std::vector<std::string> equations;    // the balanced components
+  // The parameters that end on a bound ("stroke_amplitude_deg at its upper bound 170 deg"): where an infeasible
+  // trim is held; empty when none is.
+  std::vector<std::string> active_bounds() const;
 };
 
 // Solves the trim of the case's [trim] section with its solver. Throws InputError for an ill-posed

@@ -17,13 +17,8 @@ Wrench CfdLoadRow::total() const {
 }
 
 std::string forces_csv_header() {
-  std::string h =
-      "# flapstab cfd: loads of the fluid on each part at every time step\n"
-      "# axes: hover stability axes S (x forward, y right, z down), body-fixed; origin O = wingbeat-mean centre of "
-      "mass; moments about O\n"
-      "# units: time s, force N, moment N m, power W; phase = t / T modulo 1\n"
-      "# parts: body, right (wing), left (wing); p = pressure part, v = viscous part; P = the part's rate of work on "
-      "the air; wing_power_W = the wings' work on the air through their motion relative to the body\n";
+  // One header row, units in the column names (pandas.read_csv and Python's csv module need no options); what the
+  // columns mean (axes, origin, parts) is in run.json's "files" block and docs/cfd-files.md.
   std::string cols = "time_s,step,phase";
   for (const char* part : part_names) {
     for (const char* kind : {"p", "v"})
@@ -33,7 +28,7 @@ std::string forces_csv_header() {
     cols += fmt::format(",{}_P_W", part);
   }
   cols += ",Fx_N,Fy_N,Fz_N,Mx_N_m,My_N_m,Mz_N_m,wing_power_W";
-  return h + cols + "\n";
+  return cols + "\n";
 }
 
 std::string forces_csv_row(const CfdLoadRow& r) {

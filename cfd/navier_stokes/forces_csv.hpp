@@ -22,7 +22,7 @@ struct CfdLoadRow {
   Wrench total() const;
 };
 
-// The header lines of forces.csv (each starts with '#') and its column names.
+// The header row of forces.csv: the column names with their units (axes and parts: run.json, docs/cfd-files.md).
 std::string forces_csv_header();
 std::string forces_csv_row(const CfdLoadRow& r);
 // The inverse of forces_csv_row (without its newline); std::invalid_argument for a malformed row.

@@ -105,6 +105,9 @@ class ImmersedBoundary final : public StageHooks {
   // The part's lattice level set at world point x and time t (m): signed distance (negative inside) for a
   // closed part, unsigned distance to the membrane's mid-surface for a membrane; capped at a few cell widths.
   double level_set(int part, double t, const Vec3& x) const;
+  // 1 in the cells whose centre lies inside a part at time t (closed parts: inside the surface; membranes: within
+  // the half thickness the forcing uses), else 0; interior cells, x fastest (the field files' order).
+  std::vector<double> solid_mask(double t) const;
 
   // Places the parts at the solver's time, marks cell flags (solid / ghost = interface band / fluid) and
   // attaches itself to the solver's stages. Call after solver.initialise() (or restore()).

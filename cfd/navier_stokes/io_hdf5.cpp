@@ -3,8 +3,10 @@
 #include <hdf5.h>
 #include <unistd.h>
 #include <algorithm>
+#include <cerrno>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
 #include <numeric>
@@ -13,6 +15,7 @@
 #include "cfd/navier_stokes/io_vtk.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "core/hash.hpp"
 
 namespace flapstab::ns {
 
@@ -171,8 +174,11 @@ void write_vector(hid_t loc, const char* name, const std::vector<double>& v, con
 template <class F>
 void write_hdf5_atomic(const std::string& path, F fill) {
   const fs::path target(path);
-  if (target.has_parent_path()) fs::create_directories(target.parent_path());
+  std::error_code ec;
+  if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+  if (ec) throw OutputError(output_failure("create directory", target.parent_path().string(), ec.value()));
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  errno = 0;
   try {
     {
       Id file(checked(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), path, "cannot create " + tmp),
@@ -180,10 +186,18 @@ void write_hdf5_atomic(const std::string& path, F fill) {
       fill(hid_t(file));
       checked_status(H5Fflush(file, H5F_SCOPE_GLOBAL), path, "flush");
     }
-    fs::rename(tmp, target);
-  } catch (...) {
-    std::error_code ec;
+    fs::rename(tmp, target, ec);
+    if (ec) throw OutputError(output_failure("rename into place", path, ec.value()));
+  } catch (const std::invalid_argument&) {
     fs::remove(tmp, ec);
+    throw;
+  } catch (const std::runtime_error& e) {
+    // HDF5 writes through POSIX calls: a full disk or a refused write leaves errno set. Name the system's reason.
+    const int err = errno;
+    fs::remove(tmp, ec);
+    if (dynamic_cast<const OutputError*>(&e)) throw;
+    if (err == ENOSPC || err == EDQUOT || err == EROFS || err == EACCES || err == EPERM || err == EIO || err == EFBIG)
+      throw OutputError(output_failure("write", path, err) + " (" + e.what() + ")");
     throw;
   }
 }
@@ -477,6 +491,16 @@ RectilinearAxes read_axes(const std::string& path) {
 
 // ---- Checkpoints ---------------------------------------------------------------------------------
 
+std::uint64_t checkpoint_checksum(std::span<const double> data) {
+  std::uint64_t h = fnv1a64_basis;
+  for (double v : data) {
+    std::uint64_t w;
+    std::memcpy(&w, &v, sizeof w);
+    h = (h ^ w) * 1099511628211ull;
+  }
+  return h;
+}
+
 void write_checkpoint(const std::string& path, const CheckpointHeader& header,
                       const std::vector<CheckpointArray>& arrays) {
   for (const auto& a : arrays) {
@@ -511,6 +535,7 @@ void write_checkpoint(const std::string& path, const CheckpointHeader& header,
       if (!a.data.empty())
         checked_status(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.data.data()), path,
                        "dataset " + a.name);
+      write_string_attribute(set, "checksum", fnv1a64_hex_of(checkpoint_checksum(a.data)), path);
     }
   });
 }
@@ -588,6 +613,19 @@ void CheckpointReader::read(const std::string& name, std::span<double> out) cons
   if (n > 0)
     checked_status(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), path_,
                    "dataset " + name);
+  // Checkpoints of format 1 written before the checksum was added have none; every newer array carries one.
+  if (has_attribute(set, "checksum")) {
+    const std::string stored = read_string_attribute(set, "checksum", path_);
+    const std::string now = fnv1a64_hex_of(checkpoint_checksum(out));
+    if (stored != now)
+      throw InputError(path_, name, "damaged: its data hash " + now + " differs from the checksum stored with it (" +
+                                        stored + ")",
+                       "an intact checkpoint");
+  }
+}
+
+void CheckpointReader::verify() const {
+  for (const auto& name : names()) read(name);
 }
 
 std::vector<double> CheckpointReader::read(const std::string& name) const {

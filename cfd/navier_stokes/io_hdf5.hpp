@@ -106,6 +106,9 @@ struct CheckpointArray {
   std::vector<std::size_t> shape;    // optional; empty: one-dimensional. Product must equal data.size()
 };
 
+// FNV-1a over the arrays' 64-bit words (the bit patterns of the doubles): the checksum stored with each array.
+std::uint64_t checkpoint_checksum(std::span<const double> data);
+
 // Writes every array bit for bit (IEEE float64) and the header into one HDF5 file, atomically.
 void write_checkpoint(const std::string& path, const CheckpointHeader& header,
                       const std::vector<CheckpointArray>& arrays);
@@ -126,8 +129,11 @@ class CheckpointReader {
   std::vector<std::size_t> shape(const std::string& name) const;
   // Reads an array into `out`, whose size must match; InputError(path, name, ...) when the array is
   // missing or its size differs.
+  // Arrays carry a checksum (checkpoint_checksum); a mismatch is an InputError naming the array.
   void read(const std::string& name, std::span<double> out) const;
   std::vector<double> read(const std::string& name) const;
+  // Reads every array and checks its checksum (InputError for the first damaged one).
+  void verify() const;
 
  private:
   std::string path_;

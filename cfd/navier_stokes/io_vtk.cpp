@@ -151,8 +151,8 @@ void write_pvd(const std::string& path, const std::vector<PvdEntry>& entries) {
   std::string s = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
   s += "  <Collection>\n";
   for (const auto& e : entries)
-    fmt::format_to(std::back_inserter(s), "    <DataSet timestep=\"{}\" group=\"\" part=\"{}\" file=\"{}\"/>\n",
-                   e.time, e.part, xml_escape(e.file));
+    fmt::format_to(std::back_inserter(s), "    <DataSet timestep=\"{}\" group=\"\" part=\"{}\" name=\"{}\" file=\"{}\"/>\n",
+                   e.time, e.part, xml_escape(e.name), xml_escape(e.file));
   s += "  </Collection>\n</VTKFile>\n";
   write_file_atomic(path, s);
 }
@@ -164,10 +164,10 @@ SurfaceWriter::SurfaceWriter(std::string directory, std::string name)
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
-  // Our own write_pvd output, one DataSet per line.
-  const std::regex entry(R"re(<DataSet timestep="([^"]*)" group="" part="(\d+)" file="([^"]*)"/>)re");
+  // Our own write_pvd output, one DataSet per line (files of earlier versions have no name attribute).
+  const std::regex entry(R"re(<DataSet timestep="([^"]*)" group="" part="(\d+)"(?: name="([^"]*)")? file="([^"]*)"/>)re");
   for (std::sregex_iterator it(text.begin(), text.end(), entry), end; it != end; ++it)
-    entries_.push_back({std::stod((*it)[1].str()), std::stoi((*it)[2].str()), (*it)[3].str()});
+    entries_.push_back({std::stod((*it)[1].str()), std::stoi((*it)[2].str()), (*it)[4].str(), (*it)[3].str()});
 }
 
 std::string SurfaceWriter::collection_path() const {
@@ -178,14 +178,15 @@ void SurfaceWriter::write(double time, std::int64_t step, const std::vector<Surf
   std::erase_if(entries_, [&](const PvdEntry& e) { return e.time >= time; });
   for (std::size_t i = 0; i < parts.size(); ++i) {
     if (!parts[i].mesh) throw std::invalid_argument("surface part " + std::to_string(i) + " has no mesh");
-    std::string label = parts[i].mesh->label.empty() ? "part" + std::to_string(i) : parts[i].mesh->label;
+    const std::string name = parts[i].mesh->label.empty() ? "part" + std::to_string(i) : parts[i].mesh->label;
+    std::string label = name;
     for (char& c : label)
       if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-') c = '_';
     const std::string file = fmt::format("{}_{}_{:06d}.vtp", name_, label, step);
     SurfaceData data = parts[i].data;
     data.time = time;
     write_vtp((std::filesystem::path(directory_) / file).string(), *parts[i].mesh, data);
-    entries_.push_back({time, int(i), file});
+    entries_.push_back({time, int(i), file, name});
   }
   write_pvd(collection_path(), entries_);
 }

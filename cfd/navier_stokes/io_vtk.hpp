@@ -33,6 +33,7 @@ struct PvdEntry {
   double time = 0;   // s
   int part = 0;      // several parts (body, wings) at one time carry different part numbers
   std::string file;  // relative to the .pvd file
+  std::string name;  // the part's name (body, right, left): ParaView names the blocks by it
 };
 
 // s with & < > " replaced by XML entities (for attribute values and text; also used by the XDMF writer).

@@ -11,6 +11,7 @@
 
 #include "cfd/navier_stokes/diagnostics.hpp"
 #include "core/atomic_write.hpp"
+#include "core/errors.hpp"
 
 namespace flapstab::ns {
 
@@ -31,18 +32,40 @@ std::string fmt_seconds(double s) {
 
 // ---- forces.csv ------------------------------------------------------------------------------------------------
 
-void ForcesCsv::keep_earlier(const std::string& file, long step) {
+void ForcesCsv::keep_earlier(const std::string& file, long step, long first_step) {
   std::ifstream in(file);
+  if (!in)
+    throw InputError(file, "", "missing or unreadable: a restart from step " + std::to_string(step) +
+                                   " needs the rows of the interrupted run up to that step",
+                     "the forces.csv of the interrupted run");
   std::string line;
+  long expect = first_step, number = 0;
   while (std::getline(in, line)) {
+    ++number;
     if (line.empty() || line[0] == '#' || line.rfind("time_s", 0) == 0) continue;
-    const auto a = line.find(','), b = line.find(',', a + 1);
-    if (a == std::string::npos || b == std::string::npos) continue;
-    if (std::stol(line.substr(a + 1, b - a - 1)) <= step) {
-      lines_.push_back(line + "\n");
-      earlier_.push_back(parse_forces_csv_row(line));
+    CfdLoadRow r;
+    try {
+      r = parse_forces_csv_row(line);
+    } catch (const std::exception& e) {
+      if (expect > step) break;  // rows past the checkpoint are dropped anyway (a kill while they were written)
+      throw InputError(file, "line " + std::to_string(number), std::string("damaged row: ") + e.what(),
+                       "a complete row of step " + std::to_string(expect));
     }
+    if (r.step > step) break;
+    if (r.step != expect)
+      throw InputError(file, "line " + std::to_string(number),
+                       "holds step " + std::to_string(r.step) + " where step " + std::to_string(expect) + " belongs",
+                       "the rows of steps " + std::to_string(first_step) + " to " + std::to_string(step) + " in order");
+    lines_.push_back(line + "\n");
+    earlier_.push_back(r);
+    ++expect;
   }
+  if (expect <= step)
+    throw InputError(file, "line " + std::to_string(number + 1),
+                     "ends at step " + std::to_string(expect - 1) + ", before the checkpoint's step " +
+                         std::to_string(step) + " (rows were lost)",
+                     "the rows of steps " + std::to_string(first_step) + " to " + std::to_string(step) +
+                         "; restart from an earlier checkpoint or run again");
 }
 
 void ForcesCsv::on_step(const Simulation&, const StepReport& r) {
@@ -91,8 +114,10 @@ std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir)
 void Checkpointer::write(const Simulation& sim) {
   const std::string path = fmt::format("{}/checkpoint_{:09d}.h5", dir_, sim.step());
   fs::create_directories(dir_);
-  write_state(path, sim.state(), values_, text_);
+  // forces.csv first: a kill between the two leaves rows beyond the newest checkpoint (dropped on restart), never
+  // a checkpoint beyond the rows.
   if (csv_) csv_->flush();
+  write_state(path, sim.state(), values_, text_);
   last_ = path;
   last_step_ = sim.step();
   auto list = checkpoints_in(dir_);  // keep the newest
@@ -127,12 +152,14 @@ void FieldOutput::write(const Simulation& sim) {
   for (int k = 1; k <= sh.nz; ++k)
     for (int j = 1; j <= sh.ny; ++j)
       for (int i = 1; i <= sh.nx; ++i) pa[n++] = rho * sim.solver().pressure()(i, j, k);
+  const std::vector<double> solid = sim.solid_mask();
   auto arr = [](const std::vector<double>& v) { return CellArray{v.data()}; };
   writer_->write(sim.time(), sim.step(),
                  {CellField{"velocity", "m/s", {arr(cf.u[0]), arr(cf.u[1]), arr(cf.u[2])}},
                   CellField{"pressure", "Pa", {arr(pa)}},
                   CellField{"vorticity", "1/s", {arr(cf.w[0]), arr(cf.w[1]), arr(cf.w[2])}},
-                  CellField{"q_criterion", "1/s^2", {arr(cf.q)}}});
+                  CellField{"q_criterion", "1/s^2", {arr(cf.q)}},
+                  CellField{"solid", "1", {arr(solid)}}});
 }
 
 void SurfaceOutput::write(const Simulation& sim) {

@@ -30,8 +30,9 @@ bool crossed(int per_cycle, double period, double ta, double tb);
 class ForcesCsv final : public StepObserver {
  public:
   explicit ForcesCsv(std::string path) : path_(std::move(path)) {}
-  // Reads the rows of an earlier forces.csv up to and including `step` (a restart from that step).
-  void keep_earlier(const std::string& file, long step);
+  // Reads the rows of an earlier forces.csv up to and including `step` (a restart from that step). They must be
+  // there, steps first_step ... step in order: otherwise InputError naming the file and the line.
+  void keep_earlier(const std::string& file, long step, long first_step = 1);
   void on_step(const Simulation&, const StepReport& r) override;
   void on_end(const Simulation&) override { flush(); }
   void flush() const;
@@ -46,7 +47,8 @@ class ForcesCsv final : public StepObserver {
   std::vector<std::string> lines_;
 };
 
-// Checkpoints per wingbeat (and at the end), keeping the newest `keep`; each flushes forces.csv first.
+// Checkpoints per wingbeat (and at the end), keeping the newest `keep`; each flushes forces.csv first, so the rows
+// always reach the newest checkpoint's step.
 class Checkpointer final : public StepObserver {
  public:
   Checkpointer(std::string directory, int per_cycle, std::map<std::string, double> values,

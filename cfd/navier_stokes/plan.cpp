@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <stdexcept>
 #include <fmt/format.h>
 
@@ -29,6 +30,43 @@ std::string grid_summary(const Grid& g) {
 Grid plan_grid(const CfdPlan& plan) {
   return Grid(Axis::stretched(plan.axes[0], false), Axis::stretched(plan.axes[1], false),
               Axis::stretched(plan.axes[2], false));
+}
+
+std::size_t estimated_bytes(const CfdPlan& plan) {
+  const Grid g = plan_grid(plan);
+  const Shape sh = g.shape();
+  const double with_ghosts = double(sh.size());
+  // Solver: 14 double arrays (u, u*, N_prev, phi: 3 each; p, div) + flags; Poisson: 3 double Krylov vectors and
+  // 3 float arrays per multigrid level (a geometric series, 8/7 of the finest); immersed boundary: one float level
+  // set per part (3); a field output: cell-centred u, vorticity (3 each), Q and pressure as doubles (8).
+  const double per_cell = 14 * 8 + 1 + 3 * 8 + 3 * 4 * 8.0 / 7.0 + 3 * 4 + 8 * 8;
+  return std::size_t(with_ghosts * per_cell) + (std::size_t(64) << 20);  // + meshes, tables, the program
+}
+
+std::size_t available_memory_bytes() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  std::size_t kb = 0;
+  std::string unit;
+  while (in >> key >> kb >> unit)
+    if (key == "MemAvailable:") return kb * 1024;
+  return 0;
+}
+
+void check_memory(const CfdPlan& plan, const std::string& case_path, std::size_t available) {
+  if (available == 0) available = available_memory_bytes();
+  if (available == 0) return;
+  const std::size_t need = estimated_bytes(plan);
+  if (need <= available) return;
+  const Grid g = plan_grid(plan);
+  throw InputError(case_path, "aero.cfd.cells_per_chord",
+                   fmt::format("the grid of {} x {} x {} = {:.4g} cells ({:.1f} cells per mean chord) needs about "
+                               "{:.2f} GiB; {:.2f} GiB of memory is available",
+                               g.axis[0].n, g.axis[1].n, g.axis[2].n, double(g.cells()), plan.chord_cells,
+                               need / 1073741824.0, available / 1073741824.0),
+                   fmt::format("a grid that fits: memory grows with the cube of cells_per_chord, so at most about "
+                               "{:.1f} cells per chord, or a smaller domain (fine_margin_R, upstream_R ...)",
+                               plan.chord_cells * std::cbrt(double(available) / double(need))));
 }
 
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, int cycles_override) {

@@ -55,4 +55,15 @@ Grid plan_grid(const CfdPlan& plan);
 std::string grid_summary(const Grid& g);
 MeshResolution mesh_resolution(const CfdSettings& s);
 
+// Memory a Simulation of this plan will hold at most (bytes): the solver's fields, the Poisson solver and its
+// multigrid levels, the parts' level sets, and the transient arrays of a flow-field output; an upper estimate
+// (tests compare it with Simulation::bytes()).
+std::size_t estimated_bytes(const CfdPlan& plan);
+// The memory the system says is available (MemAvailable of /proc/meminfo; 0 when unknown).
+std::size_t available_memory_bytes();
+// Refuses a plan that does not fit in `available` bytes (0: available_memory_bytes()) before anything is
+// allocated: InputError naming the case file and aero.cfd.cells_per_chord with the grid, the estimate and the
+// memory available.
+void check_memory(const CfdPlan& plan, const std::string& case_path, std::size_t available = 0);
+
 }  // namespace flapstab::ns

@@ -17,6 +17,7 @@
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "core/hash.hpp"
+#include "core/interrupt.hpp"
 
 namespace flapstab::ns {
 
@@ -67,35 +68,48 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
                   {"seconds_per_step", res.seconds_per_step},
                   {"ns_per_cell_per_step", 1e9 * res.seconds_per_step / res.cells},
                   {"threads", omp_get_max_threads()}};
-  // Mean loads over the last wingbeat (time-weighted, trapezoid rule over the rows).
+  // The result: mean loads over the last complete wingbeat, the start-up wingbeat excluded (cfd_run_result).
+  const CfdRunResult& r = res.result;
+  auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };
+  nlohmann::json result;
+  if (r.available) {
+    result["wingbeat"] = r.wingbeat;
+    result["from_s"] = r.from_s;
+    result["to_s"] = r.to_s;
+    result["complete_wingbeat"] = r.complete;
+    result["includes_startup"] = r.includes_startup;
+    result["note"] = r.note;
+    result["force_N"] = vec(r.mean.force);
+    result["moment_N_m"] = vec(r.mean.moment);
+    result["wing_power_W"] = r.wing_power;
+    result["weight_N"] = r.weight;
+    result["lift_over_weight"] = r.lift_over_weight;
+    for (int i = 0; i < 3; ++i)
+      result["parts"][part_names[i]] = {{"force_N", vec(r.part_mean[i].force)}, {"moment_N_m", vec(r.part_mean[i].moment)}};
+  }
+  j["status"] = res.status;
+  j["result"] = result;
+  // The same window under its earlier name (kept for readers of older run.json files).
   nlohmann::json mean;
-  if (res.last_cycle.size() >= 2) {
-    const double span = res.last_cycle.back().time - res.last_cycle.front().time;
-    auto avg = [&](auto get) {
-      double a = 0;
-      for (std::size_t k = 1; k < res.last_cycle.size(); ++k)
-        a += 0.5 * (get(res.last_cycle[k]) + get(res.last_cycle[k - 1])) *
-             (res.last_cycle[k].time - res.last_cycle[k - 1].time);
-      return span > 0 ? a / span : get(res.last_cycle.back());
-    };
+  if (r.available) {
     for (int i = 0; i < 4; ++i) {
-      nlohmann::json m;
-      auto wr = [i](const CfdLoadRow& r) {
-        if (i == 3) return r.total();
-        const auto& q = r.part[i];
-        return Wrench{q.pressure_force + q.viscous_force, q.pressure_moment + q.viscous_moment};
-      };
-      for (int a = 0; a < 3; ++a) {
-        m["force_N"].push_back(avg([&](const CfdLoadRow& r) { return wr(r).force[a]; }));
-        m["moment_N_m"].push_back(avg([&](const CfdLoadRow& r) { return wr(r).moment[a]; }));
-      }
-      mean[i == 3 ? "total" : part_names[i]] = m;
+      const Wrench& w = i == 3 ? r.mean : r.part_mean[i];
+      mean[i == 3 ? "total" : part_names[i]] = {{"force_N", vec(w.force)}, {"moment_N_m", vec(w.moment)}};
     }
-    mean["wing_power_W"] = avg([](const CfdLoadRow& r) { return r.wing_power; });
-    mean["from_s"] = res.last_cycle.front().time;
-    mean["to_s"] = res.last_cycle.back().time;
+    mean["wing_power_W"] = r.wing_power;
+    mean["from_s"] = r.from_s;
+    mean["to_s"] = r.to_s;
   }
   j["mean_loads_last_cycle"] = mean;
+  j["files"]["forces.csv"] = {
+      {"rows", "one per time step (step 1 onwards); one header row, units in the column names"},
+      {"axes", "hover stability axes S (x forward, y right, z down), body-fixed; origin O = wingbeat-mean centre of "
+               "mass; moments about O"},
+      {"units", "time s, force N, moment N m, power W; phase = t / T modulo 1"},
+      {"columns", "PART_F{x,y,z}_{p,v}_N, PART_M{x,y,z}_{p,v}_N_m, PART_P_W for PART = body, right, left (p = "
+                  "pressure part, v = viscous part, P = the part's rate of work on the air); F{x,y,z}_N, "
+                  "M{x,y,z}_N_m = totals; wing_power_W = the wings' work on the air through their motion relative "
+                  "to the body"}};
   write_file_atomic(path, j.dump(2) + "\n");
 }
 
@@ -127,6 +141,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
         for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"})
           if (!ck->contains(name)) throw InputError(it->second, name, "missing array", "a checkpoint of flapstab cfd");
         if (!ck->header().values.count("guess")) throw InputError(it->second, "guess", "missing value", "a checkpoint of flapstab cfd");
+        ck->verify();  // every array against its checksum: a damaged checkpoint is skipped for the one before
         res.restarted_from = it->second;
       } catch (const std::exception& e) {
         ck.reset();
@@ -144,6 +159,19 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     if (!text.count("grid") || text.at("grid") != grid_text)
       throw InputError(c.path, "--restart", "the checkpoint's grid differs from this run's (cycles or body motion changed?)",
                        "the settings of the interrupted run");
+    // A finished run: nothing to do, and nothing is rewritten (run.json keeps the record of the run).
+    const long ck_step = long(ck->header().step);
+    const bool done = plan.steps_per_cycle > 0 ? ck_step >= long(plan.cycles) * plan.steps_per_cycle
+                                               : ck->header().time >= plan.cycles * plan.period * (1 - 1e-12);
+    if (done) {
+      res.status = "nothing to do";
+      res.start_step = res.steps = ck_step;
+      if (log)
+        *log << fmt::format("flapstab cfd: nothing to do: the run in {} is complete ({} wingbeats, step {}, {}); its "
+                            "files are unchanged (give --cycles N to run further)\n",
+                            o.directory, plan.cycles, ck_step, res.restarted_from);
+      return res;
+    }
   }
 
   SimulationOptions so;
@@ -187,14 +215,16 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     for (const auto& w : plan.warnings) *log << "  warning: " << w << "\n";
   }
 
-  // Observers (files created lazily: bad input and dry runs write nothing).
-  if (write) fs::create_directories(o.directory);
+  // Observers (files created lazily: bad input and dry runs write nothing). One run per directory at a time.
+  std::optional<ExclusiveRun> exclusive;
+  if (write) exclusive.emplace(o.directory, "-o");
   ForcesCsv csv(write ? o.directory + "/forces.csv" : std::string());
-  if (write && ck) csv.keep_earlier(o.directory + "/forces.csv", start_step);
+  if (write && ck) csv.keep_earlier(o.directory + "/forces.csv", start_step);  // InputError when rows are missing
   Checkpointer checkpoints(ckdir, s.checkpoints_per_cycle,
                            {{"reynolds", plan.reynolds}, {"nu", plan.nu}, {"density", plan.rho}, {"period", plan.period}},
                            {{"case_hash", hash}, {"case", c.path}, {"grid", grid_text}}, &csv);
   if (ck) checkpoints.set_last(res.restarted_from, start_step);
+  const double weight = c.insect.weight();
   FieldOutput fields(o.directory + "/fields", s.fields_per_cycle,
                      s.field_precision == "float32" ? FieldPrecision::float32 : FieldPrecision::float64);
   SurfaceOutput surfaces(o.directory + "/surfaces", s.surfaces_per_cycle);
@@ -230,6 +260,9 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     res.seconds_per_step = progress.seconds_per_step();
     res.rows = csv.rows();
   };
+  std::optional<InterruptGuard> signals;
+  if (o.handle_signals && !o.dry_run) signals.emplace();
+  const long stop_at = o.steps > 0 ? start_step + o.steps : 0;
   while (in_run(sim.step(), sim.time())) {
     StepReport r;
     try {
@@ -244,21 +277,103 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
       csv.flush();
       return res;
     }
+    if (const int sig = interrupt_requested(); sig != 0 && in_run(sim.step(), sim.time())) {
+      // Stop at the end of the step: the rows and a checkpoint of this step, then say how to continue.
+      finish();
+      std::string saved = "nothing was saved (no output directory)";
+      if (write) {
+        if (checkpoints.last_step() != sim.step()) checkpoints.write(sim);  // flushes forces.csv first
+        saved = fmt::format("forces.csv and {} are written; continue with --restart", checkpoints.last());
+      }
+      clear_interrupt();
+      throw Interrupted(sig, fmt::format("the CFD run stopped on {} at step {} (t = {:.6g} s, t/T = {:.4f}): {}",
+                                         signal_name(sig), sim.step(), sim.time(), sim.time() / plan.period, saved));
+    }
+    if (stop_at > 0 && sim.step() >= stop_at && in_run(sim.step(), sim.time())) {
+      res.status = "stopped";
+      break;
+    }
   }
   finish();
   if (o.dry_run) return res;
+  if (res.status.empty()) res.status = "complete";
 
   // Rows of the last wingbeat, with the one at its start when the run has it (the previous wingbeat's last step).
   res.last_cycle = csv.since((plan.cycles - 1) * plan.period, plan.period);
+  std::vector<CfdLoadRow> all = csv.earlier();
+  all.insert(all.end(), csv.rows().begin(), csv.rows().end());
+  res.result = cfd_run_result(all, plan, weight);
   if (write) {
     for (auto* ob : observers) ob->on_end(sim);
     write_run_json(o.directory + "/run.json", c, hash, sim, res);
+    for (const std::string& d : {o.directory, ckdir, o.directory + "/fields", o.directory + "/surfaces"})
+      remove_stale_temporaries(d);  // left by killed runs
   }
   if (log)
     *log << fmt::format("  done: {} steps in {}, {:.3g} s per step ({:.0f} ns per cell per step)\n",
                         res.steps - res.start_step, fmt_seconds(res.wall_seconds), res.seconds_per_step,
                         1e9 * res.seconds_per_step / res.cells);
   return res;
+}
+
+CfdRunResult cfd_run_result(const std::vector<CfdLoadRow>& rows, const CfdPlan& plan, double weight) {
+  CfdRunResult r;
+  r.weight = weight;
+  if (rows.empty()) return r;
+  const double T = plan.period, eps = 1e-9;
+  const double t_last = rows.back().time;
+  const int full = int(std::floor(t_last / T + eps));  // complete wingbeats
+  if (full >= 2) {
+    r.wingbeat = full;
+    r.complete = true;
+    r.note = fmt::format("wingbeat {} of the run (the last complete one); wingbeat 1, the start-up from rest, "
+                         "excluded", full);
+  } else if (full == 1) {
+    r.wingbeat = 1;
+    r.complete = true;
+    r.includes_startup = true;
+    r.note = "wingbeat 1, the start-up from rest: the only complete wingbeat, not a hover result (run 2 or more "
+             "wingbeats: --cycles)";
+  } else {
+    r.wingbeat = 1;
+    r.includes_startup = true;
+    r.note = fmt::format("less than a wingbeat (t/T = {:.3f}) from rest: a smoke run, not a hover result", t_last / T);
+  }
+  r.from_s = r.complete ? (r.wingbeat - 1) * T : 0.0;
+  r.to_s = r.complete ? r.wingbeat * T : t_last;
+  std::vector<const CfdLoadRow*> w;
+  for (const auto& row : rows)
+    if (row.time > r.from_s - eps * T && row.time < r.to_s + eps * T) w.push_back(&row);
+  if (w.empty()) return r;
+  r.available = true;
+  // Time-weighted (trapezoid rule over the rows; one row: its value).
+  const double span = w.back()->time - w.front()->time;
+  auto avg = [&](auto get) {
+    if (w.size() < 2 || span <= 0) return get(*w.back());
+    decltype(get(*w.back())) a = get(*w.back()) * 0.0;
+    for (std::size_t k = 1; k < w.size(); ++k) a += 0.5 * (get(*w[k]) + get(*w[k - 1])) * (w[k]->time - w[k - 1]->time);
+    return decltype(a)(a / span);
+  };
+  r.mean.force = avg([](const CfdLoadRow& x) -> Vec3 { return x.total().force; });
+  r.mean.moment = avg([](const CfdLoadRow& x) -> Vec3 { return x.total().moment; });
+  for (int i = 0; i < 3; ++i) {
+    r.part_mean[i].force = avg([i](const CfdLoadRow& x) -> Vec3 { return x.part[i].wrench().force; });
+    r.part_mean[i].moment = avg([i](const CfdLoadRow& x) -> Vec3 { return x.part[i].wrench().moment; });
+  }
+  r.wing_power = avg([](const CfdLoadRow& x) { return x.wing_power; });
+  r.lift_over_weight = weight > 0 ? -r.mean.force.z() / weight : 0.0;
+  return r;
+}
+
+std::string cfd_run_result_text(const CfdRunResult& r) {
+  if (!r.available) return "  result: no rows\n";
+  const Vec3 F = 1e3 * r.mean.force, M = 1e3 * r.mean.moment;
+  return fmt::format(
+      "  result over {} (t = {:.6g} to {:.6g} s):\n"
+      "    mean force  ({:+.4g}, {:+.4g}, {:+.4g}) mN   lift / weight = {:.3f} (weight {:.4g} mN; lift = -F_z, z down)\n"
+      "    mean moment ({:+.4g}, {:+.4g}, {:+.4g}) mN m about O   wing power {:.4g} mW\n",
+      r.note, r.from_s, r.to_s, F.x(), F.y(), F.z(), r.lift_over_weight, 1e3 * r.weight, M.x(), M.y(), M.z(),
+      1e3 * r.wing_power);
 }
 
 }  // namespace flapstab::ns

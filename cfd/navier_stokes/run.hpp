@@ -29,6 +29,24 @@ struct CfdRunOptions {
   double progress_seconds = 5;  // wall time between progress lines
   long stop_after_steps = 0;    // > 0: stop after this step as if interrupted (forces.csv flushed, no final
                                 // checkpoint or run.json): for tests of --restart and for runs in pieces
+  long steps = 0;               // > 0: run at most this many steps now (`--steps`), then stop with a checkpoint,
+                                // forces.csv and run.json (status "stopped"); --restart continues
+  bool handle_signals = true;   // SIGINT/SIGTERM: stop at the end of the step, checkpoint, throw Interrupted
+};
+
+// The result of a run: the mean loads over its last complete wingbeat, the start-up wingbeat from rest excluded.
+struct CfdRunResult {
+  bool available = false;     // false: no rows
+  int wingbeat = 0;           // 1-based wingbeat averaged
+  bool complete = false;      // the window is a whole wingbeat
+  bool includes_startup = false;  // the window is (part of) the first wingbeat from rest: not a hover result
+  double from_s = 0, to_s = 0;
+  Wrench mean;                // N, N m about O, stability axes
+  Wrench part_mean[3];        // body, right, left
+  double wing_power = 0;      // W
+  double weight = 0;          // N
+  double lift_over_weight = 0;  // -F_z / (m g)
+  std::string note;           // what the window is, in words
 };
 
 struct CfdResult {
@@ -43,7 +61,14 @@ struct CfdResult {
   std::vector<CfdLoadRow> rows;  // every step of this run (restart: from the checkpoint on)
   std::vector<CfdLoadRow> last_cycle;  // rows of the last wingbeat (restart: with those of the earlier run)
   std::string restarted_from;    // checkpoint path
+  std::string status;            // "complete", "stopped" (--steps), "nothing to do" (a restart of a finished run)
+  CfdRunResult result;
 };
+
+// The result over rows `rows` (earlier and this run's) of a run of `plan` at time `t_end_run` (see CfdRunResult).
+CfdRunResult cfd_run_result(const std::vector<CfdLoadRow>& rows, const CfdPlan& plan, double weight);
+// One paragraph for the terminal: the window and the mean loads, lift / weight and wing power.
+std::string cfd_run_result_text(const CfdRunResult& r);
 
 // The run. Throws InputError for bad input (before writing anything), SolveError on divergence (after keeping
 // the last checkpoint; the message gives step and time).

@@ -146,6 +146,7 @@ struct Simulation::Impl : StageHooks {
 Simulation::Simulation(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdPlan& plan,
                        SimulationOptions options)
     : case_(c), kin_(kin), motion_(motion), plan_(plan) {
+  check_memory(plan_, c.path);  // before anything large is allocated
   if (c.aero.cfd.threads > 0) omp_set_num_threads(c.aero.cfd.threads);
   impl_ = std::make_unique<Impl>(case_, kin_, motion_, plan_, options);
 }
@@ -235,6 +236,11 @@ CfdLoadRow Simulation::loads() const { return impl_->have_row ? impl_->row : imp
 TriangleMesh Simulation::surface(int part) const {
   if (!impl_->ib) throw std::logic_error("Simulation::surface: a body-free simulation");
   return impl_->ib->surface(part, time());
+}
+
+std::vector<double> Simulation::solid_mask() const {
+  if (!impl_->ib) return std::vector<double>(grid().cells(), 0.0);
+  return impl_->ib->solid_mask(time());
 }
 
 SurfacePressure Simulation::surface_pressure(int part) const {

@@ -100,6 +100,8 @@ class Simulation {
   // Surface of a part (0 body, 1 right, 2 left) at the current time, grid axes, and its pressure (Pa).
   TriangleMesh surface(int part) const;
   SurfacePressure surface_pressure(int part) const;
+  // 1 in cells inside a part at the current time, else 0 (ImmersedBoundary::solid_mask; all 0 without bodies).
+  std::vector<double> solid_mask() const;
 
  private:
   struct Impl;

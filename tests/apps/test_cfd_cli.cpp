@@ -128,6 +128,10 @@ TEST(CfdCli, RunThenRestartForMoreCycles) {
                         "checkpoints/checkpoint_000000030.h5"})
     EXPECT_TRUE(fs::exists(dir / f)) << f;
   EXPECT_FALSE(fs::exists(dir / "checkpoints/checkpoint_000000000.h5"));  // only the last two are kept
+  // The run ends with its result: one wingbeat from rest is the start-up, and the result says so.
+  EXPECT_NE(r.out.find("result over wingbeat 1, the start-up from rest"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("lift / weight = "), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "forces.svg"));
   {
     // The left and right wings' mean side forces over the first wingbeat mirror each other.
     std::ifstream in1(dir / "run.json");
@@ -150,17 +154,112 @@ TEST(CfdCli, RunThenRestartForMoreCycles) {
   ASSERT_EQ(total.size(), 3u);
   EXPECT_NEAR(double(j["mean_loads_last_cycle"]["from_s"]), 0.5 * double(j["time"]["end_time_s"]), 1e-12);
   for (int a = 0; a < 3; ++a) EXPECT_TRUE(std::isfinite(double(total[std::size_t(a)])));
+  // The result: wingbeat 2, the start-up wingbeat excluded; lift / weight from the mean F_z and the weight.
+  EXPECT_EQ(j["status"], "complete");
+  EXPECT_EQ(j["result"]["wingbeat"], 2);
+  EXPECT_EQ(j["result"]["includes_startup"], false);
+  EXPECT_NEAR(double(j["result"]["lift_over_weight"]),
+              -double(j["result"]["force_N"][2]) / double(j["result"]["weight_N"]), 1e-12);
+  EXPECT_NE(r.out.find("wingbeat 1, the start-up from rest, excluded"), std::string::npos) << r.out;
+  // forces.csv: one header row with units in the names, then one row per step (what pandas.read_csv reads).
   std::ifstream csv(dir / "forces.csv");
   int rows = 0;
-  for (std::string line; std::getline(csv, line);)
-    if (!line.empty() && line[0] != '#' && line.rfind("time_s", 0) != 0) ++rows;
+  std::string first;
+  std::getline(csv, first);
+  EXPECT_EQ(first.rfind("time_s,step,phase,", 0), 0u) << first;
+  for (std::string line; std::getline(csv, line);) {
+    EXPECT_TRUE(!line.empty() && line[0] != '#' && line.rfind("time_s", 0) != 0) << line;
+    ++rows;
+  }
   EXPECT_EQ(rows, 120);
+  // Python's csv module reads it with no options: 120 rows, every column named with its unit.
+  if (std::system("python3 --version > /dev/null 2>&1") == 0) {
+    const std::string check =
+        "python3 -c \"import csv, sys; r = list(csv.DictReader(open(sys.argv[1]))); "
+        "assert len(r) == 120, len(r); "
+        "assert all(k.endswith(('_N', '_N_m', '_W', '_s')) or k in ('step', 'phase') for k in r[0]), list(r[0]); "
+        "assert int(r[-1]['step']) == 120 and abs(float(r[-1]['Fz_N'])) >= 0\" " + (dir / "forces.csv").string();
+    EXPECT_EQ(std::system(check.c_str()), 0) << check;
+  }
+  // A restart with nothing left to do changes nothing.
+  const auto stamp = fs::last_write_time(dir / "run.json");
+  r = flapstab_cfd(path + " -o " + dir.string() + " --restart --cycles 2");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
+  EXPECT_EQ(fs::last_write_time(dir / "run.json"), stamp);
+  std::ifstream again(dir / "run.json");
+  EXPECT_EQ(nlohmann::json::parse(again), j);
+}
+
+// SIGINT ends a run at the end of the step with a checkpoint and the rows up to it (exit 130); --restart goes on
+// from there. --steps N is a smoke run of N steps that can be continued the same way.
+TEST(CfdCli, InterruptWritesACheckpointAndRestartContinues) {
+  std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 60\nreynolds = 20\nfields_per_cycle = 0\n"
+                                                   "surfaces_per_cycle = 0\ncheckpoints_per_cycle = 1\ncycles = 50\n");
+  text = replace(replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]", "sin_deg = [-10.0]");
+  const std::string path = write_temp("cfdcli_sigint.toml", text);
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_sigint_dir";
+  fs::remove_all(dir);
+  const std::string err = write_temp("cfd_sigint_stderr.txt", ""), rcfile = write_temp("cfd_sigint_rc.txt", "");
+  // Start it, wait for the estimate line (two steps done), start a second run into the same directory (refused:
+  // status 2), interrupt the first, record both exit statuses.
+  const std::string err2 = write_temp("cfd_second_stderr.txt", "");
+  const std::string script =
+      std::string(FLAPSTAB_BINARY) + " cfd " + path + " -o " + dir.string() + " 2> " + err + " > /dev/null & pid=$!; " +
+      "for i in $(seq 600); do grep -q estimate " + err + " && break; sleep 0.1; done; " + FLAPSTAB_BINARY + " cfd " +
+      path + " -o " + dir.string() + " -q 2> " + err2 + "; second=$?; kill -INT $pid; wait $pid; " +
+      "echo $? $second > " + rcfile;
+  ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0);
+  std::ifstream rc(rcfile), log(err);
+  int status = -1, second = -1;
+  rc >> status >> second;
+  std::ifstream log2(err2);
+  std::stringstream ss2;
+  ss2 << log2.rdbuf();
+  EXPECT_EQ(second, 2) << ss2.str();
+  EXPECT_NE(ss2.str().find("another flapstab run is writing into this directory"), std::string::npos) << ss2.str();
+  std::stringstream ss;
+  ss << log.rdbuf();
+  EXPECT_EQ(status, 130) << ss.str();
+  EXPECT_NE(ss.str().find("stopped on SIGINT at step"), std::string::npos) << ss.str();
+  EXPECT_NE(ss.str().find("--restart"), std::string::npos) << ss.str();
+  EXPECT_FALSE(fs::exists(dir / "run.json"));
+  // The checkpoint is the step it stopped at, and forces.csv reaches it.
+  long newest = -1;
+  for (const auto& e : fs::directory_iterator(dir / "checkpoints")) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("checkpoint_", 0) == 0 && n.size() == 23) newest = std::max(newest, std::stol(n.substr(11, 9)));
+  }
+  ASSERT_GT(newest, 1);
+  {
+    std::ifstream csv(dir / "forces.csv");
+    std::string line, last;
+    while (std::getline(csv, line)) last = line;
+    EXPECT_EQ(last.substr(last.find(',') + 1, last.find(',', last.find(',') + 1) - last.find(',') - 1),
+              std::to_string(newest));
+  }
+  // Continue for two steps (--steps), then check the rows run on without a gap.
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + " --restart --steps 2 --cycles 50");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("stopped after --steps 2"), std::string::npos) << r.out;
+  std::ifstream csv(dir / "forces.csv");
+  std::string line;
+  std::getline(csv, line);
+  long expect = 1;
+  while (std::getline(csv, line)) {
+    const auto a = line.find(','), b = line.find(',', a + 1);
+    EXPECT_EQ(std::stol(line.substr(a + 1, b - a - 1)), expect) << line;
+    ++expect;
+  }
+  EXPECT_EQ(expect - 1, newest + 2);
+  std::ifstream js(dir / "run.json");
+  EXPECT_EQ(nlohmann::json::parse(js)["status"], "stopped");
 }
 
 TEST(CfdCli, HelpDescribesTheOptions) {
   const CfdRunOutput r = flapstab_cfd("--help");
   EXPECT_EQ(r.status, 0);
-  for (const char* k : {"--restart", "--cycles", "--dry-run", "-o,--output", "forces.csv"})
+  for (const char* k : {"--restart", "--cycles", "--steps", "--dry-run", "-o,--output", "forces.csv", "SIGTERM"})
     EXPECT_NE(r.out.find(k), std::string::npos) << k << "\n" << r.out;
 }
 

@@ -720,7 +720,8 @@ TEST_F(NsIo, PvdListsEveryPartAndTime) {
   std::vector<PvdEntry> entries;
   for (int s = 0; s < 2; ++s)
     for (int part = 0; part < 3; ++part)
-      entries.push_back({0.5 * s, part, "surface_" + std::to_string(part) + "_" + std::to_string(s) + ".vtp"});
+      entries.push_back({0.5 * s, part, "surface_" + std::to_string(part) + "_" + std::to_string(s) + ".vtp",
+                         std::string(part == 0 ? "body" : part == 1 ? "right" : "left")});
   write_pvd(path("surfaces.pvd"), entries);
   const Xml x = parse_xml_file(path("surfaces.pvd"));
   EXPECT_EQ(x.attr.at("type"), "Collection");
@@ -729,6 +730,8 @@ TEST_F(NsIo, PvdListsEveryPartAndTime) {
   EXPECT_EQ(sets[4]->attr.at("part"), "1");
   EXPECT_EQ(std::stod(sets[4]->attr.at("timestep")), 0.5);
   EXPECT_EQ(sets[4]->attr.at("file"), "surface_1_1.vtp");
+  EXPECT_EQ(sets[4]->attr.at("name"), "right");  // ParaView names the blocks by it
+  EXPECT_EQ(sets[3]->attr.at("name"), "body");
 }
 
 TEST_F(NsIo, SurfaceSeriesContinuesAfterARestart) {
@@ -749,6 +752,8 @@ TEST_F(NsIo, SurfaceSeriesContinuesAfterARestart) {
   EXPECT_EQ(std::stod(sets[4]->attr.at("timestep")), 0.15);
   EXPECT_EQ(sets[5]->attr.at("part"), "1");
   EXPECT_EQ(sets[5]->attr.at("file"), "surfaces_right_wing_000002.vtp");
+  EXPECT_EQ(sets[5]->attr.at("name"), "right wing");
+  EXPECT_EQ(sets[1]->attr.at("name"), "right wing");  // read back from the collection of the interrupted run
   const Xml vtp = parse_xml_file(path("surfaces_body_000002.vtp"));
   EXPECT_EQ(decode_array<double>(vtp.one("FieldData").one("DataArray"), 1)[0], 0.15);  // TimeValue
   EXPECT_EQ(vtp.one("Piece").attr.at("NumberOfPolys"), std::to_string(body.size()));

@@ -60,7 +60,14 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"fourier_lengths", "sin_deg = [-55.0]", "sin_deg = [-55.0, 1.0]",
                               "kinematics.pitch.sin_deg"},
                       BadCase{"no_sources", "sources = [\"Berman & Wang 2007, J Fluid Mech 582:153, Table 2\"]",
-                              "sources = []", "insect.sources"}),
+                              "sources = []", "insect.sources"},
+                      // Finite but absurd magnitudes are refused with the key named (not NaN residuals later).
+                      BadCase{"absurd_mass", "mass_kg = 1.554e-3", "mass_kg = 1e300", "body.mass_kg"},
+                      BadCase{"absurd_wing_mass", "mass_kg = 47e-6", "mass_kg = 1e-300", "wing.mass_kg"},
+                      BadCase{"absurd_length", "length_m = 0.0519", "length_m = 1e5", "wing.length_m"},
+                      BadCase{"absurd_frequency", "frequency_hz = 26.0", "frequency_hz = 1e300", "kinematics.frequency_hz"},
+                      BadCase{"absurd_density", "density_kg_m3 = 1.225", "density_kg_m3 = 1e-300", "fluid.density_kg_m3"},
+                      BadCase{"absurd_tolerance", "tolerance = 1e-10", "tolerance = 1e-300", "trim.tolerance"}),
     [](const ::testing::TestParamInfo<BadCase>& i) { return std::string(i.param.label); });
 
 TEST(CaseFile, MissingSectionIsAllowedOnlyForOptionalOnes) {
@@ -85,6 +92,16 @@ TEST(CaseFile, SyntaxErrorGivesLine) {
 }
 
 TEST(CaseFile, MissingFile) { EXPECT_THROW(load_case("/nonexistent/case.toml"), InputError); }
+
+// Numbers in messages are short: 1e-300 is printed as such, not as 300 digits in fixed notation.
+TEST(CaseFile, AbsurdValuesArePrintedShortInMessages) {
+  const std::string path = write_temp("absurd_print.toml", replace(valid_case_text(), "density_kg_m3 = 1.225",
+                                                                   "density_kg_m3 = 1e-300"));
+  const std::string m = testing::expect_input_error([&] { load_case(path); }, "fluid.density_kg_m3", path);
+  EXPECT_NE(m.find("1e-300"), std::string::npos) << m;
+  EXPECT_LT(m.size(), 400u) << m;
+  EXPECT_NE(m.find("physically sensible"), std::string::npos) << m;
+}
 
 }  // namespace
 }  // namespace flapstab

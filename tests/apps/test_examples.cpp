@@ -1,0 +1,133 @@
+// The example cases in data/examples/ (one per feature, listed in docs/user-guide.md "Examples"): each runs as its
+// header says, and the guide lists every one of them.
+#include <gtest/gtest.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include "common/case_text.hpp"
+
+namespace flapstab {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string source = FLAPSTAB_SOURCE_DIR;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct CliResult {
+  int status;
+  std::string err;
+};
+
+CliResult flapstab(const std::string& args) {
+  const std::string err = testing::write_temp("examples_stderr.txt", "");
+  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " " + args + " > /dev/null 2> " + err).c_str());
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(err)};
+}
+
+fs::path out_dir(const std::string& name) {
+  const fs::path d = fs::path(testing::write_temp("x", "")).parent_path() / ("example_" + name);
+  fs::remove_all(d);
+  return d;
+}
+
+nlohmann::json json_of(const fs::path& p) { return nlohmann::json::parse(slurp(p)); }
+
+// analyze: a report and results.json, with a converged trim and a verdict.
+nlohmann::json analyze(const std::string& example) {
+  const fs::path dir = out_dir(example);
+  const CliResult r = flapstab("analyze " + source + "/data/examples/" + example + " -q -o " + dir.string());
+  EXPECT_EQ(r.status, 0) << example << ": " << r.err;
+  EXPECT_TRUE(fs::exists(dir / "report.md")) << example;
+  if (!fs::exists(dir / "results.json")) return {};
+  const nlohmann::json j = json_of(dir / "results.json");
+  EXPECT_TRUE(j.contains("verdict")) << example;
+  return j;
+}
+
+nlohmann::json trim(const std::string& path) {
+  const fs::path dir = out_dir(fs::path(path).stem().string() + "_trim");
+  const CliResult r = flapstab("trim-hover " + path + " -q -o " + dir.string());
+  EXPECT_EQ(r.status, 0) << path << ": " << r.err;
+  return fs::exists(dir / "trim.json") ? json_of(dir / "trim.json") : nlohmann::json{};
+}
+
+TEST(Examples, RevolvingFlyer) {
+  const nlohmann::json j = analyze("revolving_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+}
+
+TEST(Examples, HermiteKinematicsTrimLikeTheirFourierSeries) {
+  // The nodes sample the hawkmoth's pitch series: the trim moves only by the interpolation error.
+  const nlohmann::json h = analyze("hermite_hawkmoth.toml");
+  const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(h.is_null() || f.is_null());
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_NEAR(double(h["trim"]["parameters"][i]["value"]), double(f["trim"]["parameters"][i]["value"]), 0.5)
+        << f["trim"]["parameters"][i]["name"];
+}
+
+TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
+  const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
+  const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(m.is_null() || f.is_null());
+  EXPECT_EQ(m["trim"]["objective"], "min-power");
+  EXPECT_LT(double(m["trim"]["mean_aerodynamic_power_W"]), double(f["trim"]["mean_aerodynamic_power_W"]));
+}
+
+TEST(Examples, NloptTrimAgreesWithIpopt) {
+  const nlohmann::json n = trim(source + "/data/examples/nlopt_hawkmoth.toml");
+  const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(n.is_null() || f.is_null());
+  EXPECT_EQ(n["trim"]["solver"], "nlopt");
+  for (std::size_t i = 0; i < 3; ++i)  // a square system: one solution near the start
+    EXPECT_NEAR(double(n["trim"]["parameters"][i]["value"]), double(f["trim"]["parameters"][i]["value"]), 1e-3);
+}
+
+TEST(Examples, AsymmetricWingsTrimAllSixLoads) {
+  const nlohmann::json j = analyze("asymmetric_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_EQ(j["trim"]["parameters"].size(), 6u);
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+}
+
+TEST(Examples, FlusiKinematicsFile) {
+  const nlohmann::json j = analyze("flusi_fruitfly.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+}
+
+TEST(Examples, CfdCaseDryRun) {
+  const CliResult r = flapstab("cfd " + source + "/data/cases/hawkmoth_cfd.toml --dry-run");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
+}
+
+// Every example is listed in the user guide and run above (the names in this file).
+TEST(Examples, EveryExampleIsListedAndRun) {
+  const std::string guide = slurp(source + "/docs/user-guide.md"), self = slurp(source + "/tests/apps/test_examples.cpp");
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(source + "/data/examples")) {
+    const std::string name = e.path().filename().string();
+    if (e.path().extension() != ".toml") continue;
+    ++n;
+    EXPECT_NE(guide.find("data/examples/" + name), std::string::npos) << name << " is not in docs/user-guide.md";
+    const bool run = self.find("\"" + name + "\"") != std::string::npos ||
+                     self.find("/data/examples/" + name + "\"") != std::string::npos;
+    EXPECT_TRUE(run) << name << " is not run by this test";
+  }
+  EXPECT_GE(n, 6);
+}
+
+}  // namespace
+}  // namespace flapstab
