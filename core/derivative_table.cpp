@@ -82,13 +82,13 @@ class Section {
   double positive(const std::string& k, const std::string& unit) {
     const std::string expected = "a positive number in " + unit;
     const double v = number(k, expected);
-    if (!(v > 0)) fail(k, fmt::format("must be positive, got {}", v), expected);
+    if (!(v > 0)) fail(k, fmt::format("must be positive, got {:.6g}", v), expected);
     return v;
   }
   std::optional<double> optional_positive(const std::string& k, const std::string& unit) {
     const std::string expected = "a positive number in " + unit;
     const auto v = optional_number(k, expected);
-    if (v && !(*v > 0)) fail(k, fmt::format("must be positive, got {}", *v), expected);
+    if (v && !(*v > 0)) fail(k, fmt::format("must be positive, got {:.6g}", *v), expected);
     return v;
   }
   std::optional<std::string> optional_string(const std::string& k) {
@@ -143,6 +143,11 @@ void read_section(Section s, const std::vector<std::string>& names, bool all_req
   for (const auto& n : names) {
     const std::string expected = "a finite non-dimensional derivative (" + std::string(kDoc) + ")";
     const auto v = all_required ? std::optional<double>(s.number(n, expected)) : s.optional_number(n, expected);
+    // Published non-dimensional derivatives of hovering insects are O(0.01-10); |D| > 1e4 is a typing error (a
+    // dimensional value, a wrong exponent) that would otherwise end in eigenvalues of absurd size.
+    if (v && std::abs(*v) > 1e4)
+      s.fail(n, fmt::format("{:.6g} is outside the physically sensible range", *v),
+             "a non-dimensional derivative with |value| <= 1e4 (" + std::string(kDoc) + ")");
     t.at(n) = v.value_or(0.0);
   }
 }

@@ -167,6 +167,9 @@ TEST_F(DerivativeTableFile, RoundTripIsExact) {
   std::uniform_int_distribution<int> expo(-300, 300);
   auto any = [&] { return std::ldexp(mant(rng), expo(rng)); };
   auto positive = [&] { return std::abs(any()) + std::numeric_limits<double>::min(); };
+  // Derivatives within the reader's sensible range |D| <= 1e4 (2^13 = 8192), down to 2^-300.
+  std::uniform_int_distribution<int> expo_d(-300, 13);
+  auto derivative = [&] { return std::ldexp(mant(rng), expo_d(rng)); };
   for (int trial = 0; trial < 50; ++trial) {
     DerivativeTable t;
     t.source = "round \"trip\" \\ test\twith tab";
@@ -177,7 +180,7 @@ TEST_F(DerivativeTableFile, RoundTripIsExact) {
     t.mass.Izz = 1.0 + positive();
     t.mass.Ixz = trial == 0 ? -0.0 : 0.5 * mant(rng);  // |Ixz| < 1 < sqrt(Ixx Izz)
     for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) t.nd(r, c) = (trial == 1 && r == 0) ? 1.0 / 3.0 : any();
+      for (int c = 0; c < 6; ++c) t.nd(r, c) = (trial == 1 && r == 0) ? 1.0 / 3.0 : derivative();
     t.has_longitudinal = t.has_lateral = t.has_coupling = true;
 
     const auto path = write(derivative_table_toml(t), "rt.toml");
@@ -250,6 +253,9 @@ TEST_F(DerivativeTableFile, NonNumericAndNonFinite) {
   EXPECT_NE(msg.find("not finite"), std::string::npos) << msg;
   expect_error(edited("Zw = -1.0", "Zw = -inf"), "derivatives.longitudinal.Zw");
   expect_error(edited("Ixz = 0.5e-9", "Ixz = inf"), "mass.Ixz");
+  // Finite but absurd: refused with the key, the value printed short.
+  msg = expect_error(edited("Mq = -0.9", "Mq = 1e300"), "derivatives.longitudinal.Mq");
+  EXPECT_NE(msg.find("1e+300 is outside the physically sensible range"), std::string::npos) << msg;
 }
 
 TEST_F(DerivativeTableFile, NonPositiveMassInertiaAndReferences) {
