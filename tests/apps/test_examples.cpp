@@ -113,6 +113,26 @@ TEST(Examples, CfdCaseDryRun) {
   EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
 }
 
+// A table in the wingbeat convention with m+, I+, g+ (docs/derivative-table.md's worked example): the unstable
+// oscillatory mode at lambda T = 0.05453 +- 0.11595i, as the guide prints it (4 figures).
+TEST(Examples, DerivativeTableInTheWingbeatConvention) {
+  const fs::path dir = out_dir("table");
+  const CliResult r = flapstab("stability --derivatives " + source + "/data/examples/derivative_table_bumblebee.toml" +
+                               " --model longitudinal -q -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = json_of(dir / "stability.json");
+  bool found = false;
+  for (const auto& m : j["stability"]["modes"]) {
+    const double re = m["eigenvalue_per_wingbeat"][0], im = m["eigenvalue_per_wingbeat"][1];
+    if (im > 0) {
+      found = true;
+      EXPECT_NEAR(re, 0.05453, 5e-5);
+      EXPECT_NEAR(im, 0.11595, 5e-5);
+    }
+  }
+  EXPECT_TRUE(found) << j.dump();
+}
+
 // Every example is listed in the user guide and run above (the names in this file).
 TEST(Examples, EveryExampleIsListedAndRun) {
   const std::string guide = slurp(source + "/docs/user-guide.md"), self = slurp(source + "/tests/apps/test_examples.cpp");
