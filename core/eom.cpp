@@ -1,6 +1,7 @@
 // Rigid body + two prescribed-motion wings: Newton-Euler equations about the reference point O.
 #include "core/eom.hpp"
 #include <cmath>
+#include <unsupported/Eigen/AutoDiff>
 #include "core/rotation.hpp"
 
 namespace flapstab {
@@ -65,6 +66,58 @@ BodyStateVector body_state_derivative(const Configuration& config, double t, con
   dx(10) = w.y() * cp - w.z() * sp;
   dx(11) = (w.y() * sp + w.z() * cp) / ct;
   return dx;
+}
+
+Eigen::Matrix<double, 12, 12> body_state_jacobian(const Configuration& config, double t, const BodyStateVector& x,
+                                                  const Eigen::Matrix<double, 6, 6>& aero_jacobian, double g) {
+  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 12, 1>>;
+  using V = Eigen::Matrix<AD, 3, 1>;
+  using M3 = Eigen::Matrix<AD, 3, 3>;
+  const Aggregates a = aggregate(config.mass_state(t));
+  Eigen::Matrix<AD, 12, 1> X;
+  for (int i = 0; i < 12; ++i) X(i) = AD(x(i), 12, i);
+  const V v = X.segment<3>(3), w = X.segment<3>(6);
+  const AD &phi = X(9), &theta = X(10), &psi = X(11);
+  using std::cos;
+  using std::sin;
+  using std::tan;
+  const AD sp = sin(phi), cp = cos(phi), st = sin(theta), ct = cos(theta), ss = sin(psi), cs = cos(psi);
+  M3 R;  // euler321: Rz(psi) Ry(theta) Rx(phi)
+  R << ct * cs, sp * st * cs - cp * ss, cp * st * cs + sp * ss, ct * ss, sp * st * ss + cp * cs,
+      cp * st * ss - sp * cs, -st, sp * ct, cp * ct;
+  const V g_body = V(-st, sp * ct, cp * ct) * g;
+  V fa, ma;  // the wrench's response (value zero: it does not enter the derivative)
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Matrix<double, 12, 1> df = Eigen::Matrix<double, 12, 1>::Zero(), dm = df;
+    df.segment<6>(3) = aero_jacobian.row(i).transpose();
+    dm.segment<6>(3) = aero_jacobian.row(3 + i).transpose();
+    fa(i) = AD(0.0, df);
+    ma(i) = AD(0.0, dm);
+  }
+  const V c = a.c.cast<AD>(), c_dot = a.c_dot.cast<AD>(), h_rel = a.h_rel.cast<AD>();
+  const V P = a.m * v + w.cross(c) + c_dot;
+  const V H = c.cross(v) + a.J.cast<AD>() * w + h_rel;
+  const V F = fa + a.m * g_body;
+  const V Mo = ma + c.cross(g_body);
+  const V rhs_f = F - w.cross(P) - w.cross(c_dot);
+  const V rhs_m = Mo - w.cross(H) - v.cross(P) - c_dot.cross(v) - a.J_dot.cast<AD>() * w;
+  Eigen::Matrix<double, 6, 6> mass;
+  mass << a.m * Mat3::Identity(), -skew(a.c), skew(a.c), a.J;
+  Eigen::Matrix<double, 6, 12> d_rhs;
+  for (int i = 0; i < 3; ++i) {
+    d_rhs.row(i) = rhs_f(i).derivatives().transpose();
+    d_rhs.row(3 + i) = rhs_m(i).derivatives().transpose();
+  }
+  Eigen::Matrix<double, 12, 12> J;
+  const V pos_dot = R * v;
+  const AD phi_dot = w(0) + (w(1) * sp + w(2) * cp) * tan(theta), theta_dot = w(1) * cp - w(2) * sp,
+           psi_dot = (w(1) * sp + w(2) * cp) / ct;
+  for (int i = 0; i < 3; ++i) J.row(i) = pos_dot(i).derivatives().transpose();
+  J.middleRows<6>(3) = mass.partialPivLu().solve(d_rhs);
+  J.row(9) = phi_dot.derivatives().transpose();
+  J.row(10) = theta_dot.derivatives().transpose();
+  J.row(11) = psi_dot.derivatives().transpose();
+  return J;
 }
 
 void system_momenta(const Configuration& config, double t, const BodyStateVector& x, Vec3& P_inertial,

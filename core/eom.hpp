@@ -30,6 +30,13 @@ EomTerms eom_terms(const MassState& m, const BodyStateVector& x, const Wrench& a
 BodyStateVector body_state_derivative(const Configuration& config, double t, const BodyStateVector& x,
                                       const Wrench& aero, double g = standard_gravity);
 
+// d(body_state_derivative) / dx (12 x 12) at time t, the aerodynamic wrench responding to the body velocity
+// and rates as aero_jacobian = d[F; M] / d[u v w p q r] (SI). Exact (forward-mode automatic differentiation of
+// the equations above); the wrench's value does not enter, the equations being linear in it.
+Eigen::Matrix<double, 12, 12> body_state_jacobian(const Configuration& config, double t, const BodyStateVector& x,
+                                                  const Eigen::Matrix<double, 6, 6>& aero_jacobian,
+                                                  double g = standard_gravity);
+
 // Linear momentum (inertial axes) and angular momentum about the inertial origin (inertial axes)
 // of the whole system: conserved without external loads (used by tests).
 void system_momenta(const Configuration& config, double t, const BodyStateVector& x, Vec3& P_inertial,

@@ -27,6 +27,27 @@ OdeRhs free_rhs(const InstantaneousAero& aero) {
   };
 }
 
+// The exact d(free_rhs)/dx for the quasi-steady model (cfd/quasi_steady's analytic wrench derivatives through
+// core/eom's differentiated equations of motion); empty for other models (the ODE solver then differences).
+struct FreeJacobian {
+  const QuasiSteadyModel* qs = nullptr;
+  SpanQuadrature span;
+  FreeJacobian(const InstantaneousAero& aero, const AeroModel& model) : qs(dynamic_cast<const QuasiSteadyModel*>(&model)) {
+    if (qs) span = span_quadrature(aero.insect().wing, qs->options().blade_elements);
+  }
+  OdeJacobian function(const InstantaneousAero& aero) const {
+    if (!qs) return {};
+    return [this, &aero](double t, const Eigen::VectorXd& x, Eigen::MatrixXd& J) {
+      const BodyStateVector xb = x.head<12>();
+      Eigen::Matrix<double, 6, 6> dw;
+      qs->loads_jacobian(aero.configuration(), span, t, body_motion(xb), dw);
+      J.setZero(n_ode, n_ode);
+      J.topLeftCorner<12, 12>() = body_state_jacobian(aero.configuration(), t, xb, dw);
+      J(12, 10) = 1;
+    };
+  }
+};
+
 OdeOptions ode_options(const ReferenceQuantities& ref, double period, double rtol) {
   OdeOptions o;
   o.rtol = rtol;
@@ -77,7 +98,10 @@ class Shooting {
     x0.head<12>() = initial_state(z);
     std::vector<int> sens;
     if (jacobian) sens.assign(std::begin(free_states), std::end(free_states));
-    const OdeSolution s = integrate_ode(free_rhs(aero), x0, 0, T, sens, {}, ode_options(ref_, T, rtol_));
+    const FreeJacobian fj(aero, model_);
+    OdeOptions opts = ode_options(ref_, T, rtol_);
+    opts.jacobian = fj.function(aero);
+    const OdeSolution s = integrate_ode(free_rhs(aero), x0, 0, T, sens, {}, opts);
     ++integrations_;
     Eigen::VectorXd r(7);
     for (int i = 0; i < 7; ++i) {
@@ -205,8 +229,10 @@ CyclicTrimResult cyclic_trim(const Case& c, const AeroModel& model, const TrimRe
   for (int k = 0; k < N; ++k) times.push_back(res.period * k / N);
   Eigen::VectorXd y0 = Eigen::VectorXd::Zero(n_ode);
   y0.head<12>() = res.initial_state;
-  const OdeSolution s = integrate_ode(free_rhs(aero), y0, 0, res.period, {3, 4, 5, 6, 7, 8, 9, 10}, times,
-                                      ode_options(ref, res.period, o.rtol));
+  const FreeJacobian fj(aero, model);
+  OdeOptions opts = ode_options(ref, res.period, o.rtol);
+  opts.jacobian = fj.function(aero);
+  const OdeSolution s = integrate_ode(free_rhs(aero), y0, 0, res.period, {3, 4, 5, 6, 7, 8, 9, 10}, times, opts);
   res.integrations = shoot.integrations() + 1;
   for (int i = 0; i < 8; ++i)
     for (int j = 0; j < 8; ++j) res.monodromy(i, j) = s.sensitivity(3 + i, j);

@@ -21,7 +21,27 @@ struct UserData {
   Eigen::Index n;
   Eigen::VectorXd scale;
   Eigen::VectorXd x, dx, xp, xm, fp, fm;  // work space
+  const OdeJacobian* jac = nullptr;
+  // The last Jacobian and where it was formed: the staggered corrector evaluates the sensitivity right-hand
+  // sides several times at the same (t, y).
+  double jac_t = 0;
+  Eigen::VectorXd jac_x;
+  Eigen::MatrixXd J;
+  long jacobian_evaluations = 0;
 };
+
+Eigen::Map<Eigen::VectorXd> view(N_Vector v, Eigen::Index n);
+
+const Eigen::MatrixXd& jacobian_at(UserData* d, double t, N_Vector y) {
+  const Eigen::Map<Eigen::VectorXd> x = view(y, d->n);
+  if (d->jacobian_evaluations == 0 || t != d->jac_t || x != d->jac_x) {
+    d->jac_x = x;
+    d->jac_t = t;
+    (*d->jac)(t, d->jac_x, d->J);
+    ++d->jacobian_evaluations;
+  }
+  return d->J;
+}
 
 Eigen::Map<Eigen::VectorXd> view(N_Vector v, Eigen::Index n) { return {N_VGetArrayPointer(v), n}; }
 
@@ -43,6 +63,11 @@ int sens_rhs(int ns, sunrealtype t, N_Vector y, N_Vector, N_Vector* yS, N_Vector
              N_Vector) {
   auto* d = static_cast<UserData*>(user);
   try {
+    if (d->jac) {
+      const Eigen::MatrixXd& J = jacobian_at(d, t, y);
+      for (int j = 0; j < ns; ++j) view(ySdot[j], d->n).noalias() = J * view(yS[j], d->n);
+      return 0;
+    }
     d->x = view(y, d->n);
     for (int j = 0; j < ns; ++j) {
       const Eigen::Map<Eigen::VectorXd> s = view(yS[j], d->n);
@@ -58,6 +83,19 @@ int sens_rhs(int ns, sunrealtype t, N_Vector y, N_Vector, N_Vector* yS, N_Vector
       (*d->f)(t, d->xm, d->fm);
       view(ySdot[j], d->n) = (d->fp - d->fm) / (2 * h);
     }
+  } catch (...) {
+    return -1;
+  }
+  return 0;
+}
+
+// The Newton matrix's df/dx from the same Jacobian.
+int dense_jacobian(sunrealtype t, N_Vector y, N_Vector, SUNMatrix A, void* user, N_Vector, N_Vector, N_Vector) {
+  auto* d = static_cast<UserData*>(user);
+  try {
+    const Eigen::MatrixXd& J = jacobian_at(d, t, y);
+    for (Eigen::Index j = 0; j < d->n; ++j)
+      for (Eigen::Index i = 0; i < d->n; ++i) SM_ELEMENT_D(A, i, j) = J(i, j);
   } catch (...) {
     return -1;
   }
@@ -102,7 +140,8 @@ OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0,
                           const std::vector<int>& sens, const std::vector<double>& sample_times,
                           const OdeOptions& o) {
   const Eigen::Index n = x0.size();
-  UserData data{&f, n, o.scale.size() == n ? o.scale : Eigen::VectorXd::Ones(n), {}, {}, {}, {}, {}, {}};
+  UserData data{&f, n, o.scale.size() == n ? o.scale : Eigen::VectorXd::Ones(n), {}, {}, {}, {}, {}, {}, nullptr, 0, {}, {}, 0};
+  if (o.jacobian) data.jac = &o.jacobian;
   data.dx.resize(n);
   data.fp.resize(n);
   data.fm.resize(n);
@@ -122,6 +161,7 @@ OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0,
   cv.A = SUNDenseMatrix(sunindextype(n), sunindextype(n), cv.ctx);
   cv.LS = SUNLinSol_Dense(cv.y, cv.A, cv.ctx);
   check(CVodeSetLinearSolver(cv.mem, cv.LS, cv.A), "linear solver");
+  if (data.jac) check(CVodeSetJacFn(cv.mem, dense_jacobian), "Jacobian");
   if (!sens.empty()) {
     cv.ns = int(sens.size());
     cv.yS = N_VCloneVectorArray(cv.ns, cv.y);

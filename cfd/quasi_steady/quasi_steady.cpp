@@ -3,6 +3,7 @@
 // Every formula is derived, with its source, in docs/theory/quasi-steady.md (section numbers below).
 #include "cfd/quasi_steady/quasi_steady.hpp"
 #include "core/quadrature.hpp"
+#include "core/rotation.hpp"
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -71,6 +72,22 @@ TranslationalCoefficients CoefficientFit::operator()(double t) const {
     cl = cl * u + l[std::size_t(p)];
     cd = cd * u + d[std::size_t(p)];
   }
+  return {cl, cd};
+}
+
+TranslationalCoefficients CoefficientFit::operator()(double t, TranslationalCoefficients& slope) const {
+  const double x = t * pieces;
+  const int j = std::clamp(int(x), 0, pieces - 1);
+  const double u = 2 * (x - j) - 1;
+  const auto &l = lift_[std::size_t(j)], &d = drag_[std::size_t(j)];
+  double cl = l[degree], cd = d[degree], dl = 0, dd = 0;
+  for (int p = degree - 1; p >= 0; --p) {
+    dl = dl * u + cl;
+    dd = dd * u + cd;
+    cl = cl * u + l[std::size_t(p)];
+    cd = cd * u + d[std::size_t(p)];
+  }
+  slope = {dl * 2 * pieces, dd * 2 * pieces};  // du/dt = 2 pieces
   return {cl, cd};
 }
 
@@ -203,6 +220,145 @@ Wrench QuasiSteadyModel::wing_loads(const WingPose& pose, double x0, const SpanQ
   // Section 7: P = -sum dF . V_rel, V_rel = r (omega x e_s) + x (omega x e_c); (omega x e_c).e_c = 0.
   power = -(ws.dot(ec) * m_rc + ws.dot(en) * m_rn + wc.dot(en) * m_xn);
   return out;
+}
+
+// Section 9: the same sums differentiated. Every per-wing scalar the strips use is linear in the body motion
+// m = [velocity; rate]: uc = -(v0c + r vsc), un = -(v0n + r vsn) and omega_span for the circulatory and rotational
+// forces, (as_n, ac_n, v0_nd, vs_nd, vc_nd) for the added mass. Each strip contributes the partial derivatives of
+// its forces with respect to those scalars (weighted by 1, r, x for the five sums); the sums' gradients follow by
+// the chain rule with the scalars' constant gradients in m.
+Wrench QuasiSteadyModel::wing_loads_jacobian(const WingPose& pose, double x0, const SpanQuadrature& span,
+                                             const BodyMotion& motion, Eigen::Matrix<double, 6, 6>& jac) const {
+  const Vec3 ec = pose.axes.col(0), es = pose.axes.col(1), en = pose.axes.col(2);
+  const Vec3& w = pose.omega;
+  const Vec3& wb = motion.rate;
+  const Vec3 ww = wb + w;
+  const Vec3 v0 = motion.velocity + wb.cross(pose.hinge), vs = ww.cross(es), vc = ww.cross(ec);
+  const double v0c = v0.dot(ec), vsc = vs.dot(ec), v0n = v0.dot(en), vsn = vs.dot(en);
+  const double omega_span = ww.dot(es);
+  const double kappa = sgn(es.cross(en).dot(ec));
+  const Vec3 ws = w.cross(es), wc = w.cross(ec), ndot = w.cross(en);
+  const double as_n = (pose.omega_dot.cross(es) + w.cross(ws) + wb.cross(ws)).dot(en);
+  const double ac_n = (pose.omega_dot.cross(ec) + w.cross(wc) + wb.cross(wc)).dot(en);
+  const double v0_nd = v0.dot(ndot), vs_nd = vs.dot(ndot), vc_nd = vc.dot(ndot);
+
+  // Gradients in m of the circulatory inputs [v0c, vsc, v0n, vsn, omega_span] and the added-mass inputs
+  // [as_n, ac_n, v0_nd, vs_nd, vc_nd] ((a x b).c = a.(b x c) for the rate parts).
+  Eigen::Matrix<double, 5, 6> g_in = Eigen::Matrix<double, 5, 6>::Zero(), g_am = Eigen::Matrix<double, 5, 6>::Zero();
+  const Vec3& h = pose.hinge;
+  g_in.row(0) << ec.transpose(), h.cross(ec).transpose();
+  g_in.row(1).tail<3>() = es.cross(ec);
+  g_in.row(2) << en.transpose(), h.cross(en).transpose();
+  g_in.row(3).tail<3>() = es.cross(en);
+  g_in.row(4).tail<3>() = es;
+  g_am.row(0).tail<3>() = ws.cross(en);
+  g_am.row(1).tail<3>() = wc.cross(en);
+  g_am.row(2) << ndot.transpose(), h.cross(ndot).transpose();
+  g_am.row(3).tail<3>() = es.cross(ndot);
+  g_am.row(4).tail<3>() = ec.cross(ndot);
+
+  const double rho = opt_.rho;
+  const double c_rot = pi * (0.75 - x0);
+  double f_c = 0, f_n = 0, m_rc = 0, m_rn = 0, m_xn = 0;
+  // Rows: d[f_c, f_n, m_rc, m_rn, m_xn] / d(inputs).
+  Eigen::Matrix<double, 5, 5> d_in = Eigen::Matrix<double, 5, 5>::Zero(), d_am = Eigen::Matrix<double, 5, 5>::Zero();
+  for (std::size_t i = 0; i < span.r.size(); ++i) {
+    const double r = span.r[i], c = span.c[i], dr = span.w[i];
+    const double uc = -(v0c + r * vsc), un = -(v0n + r * vsn);
+    const double u2 = uc * uc + un * un, u = std::sqrt(u2);
+    double fc = 0, fn = 0;
+    double a = 0, b = 0, cc = 0, d = 0;  // dfc/duc, dfc/dun, dfn/duc, dfn/dun
+    if (u > 0) {
+      const double sc = sgn(uc), sn = sgn(un);
+      const double A = u + std::abs(uc), t = std::abs(un) / A;
+      TranslationalCoefficients dk;
+      const TranslationalCoefficients k = fit_(t, dk);
+      const double dA_duc = uc / u + sc, dA_dun = un / u;
+      const double dt_duc = -t * dA_duc / A, dt_dun = (sn - t * dA_dun) / A;
+      const double Q = 0.5 * rho * c * dr, q = Q * u, sigma = sc * sn;
+      const double gc = k.drag * uc - sigma * k.lift * un, gn = k.drag * un + sigma * k.lift * uc;
+      fc = q * gc;
+      fn = q * gn;
+      const double du_duc = uc / u, du_dun = un / u;
+      a = Q * du_duc * gc + q * ((dk.drag * uc - sigma * dk.lift * un) * dt_duc + k.drag);
+      b = Q * du_dun * gc + q * ((dk.drag * uc - sigma * dk.lift * un) * dt_dun - sigma * k.lift);
+      cc = Q * du_duc * gn + q * ((dk.drag * un + sigma * dk.lift * uc) * dt_duc + sigma * k.lift);
+      d = Q * du_dun * gn + q * ((dk.drag * un + sigma * dk.lift * uc) * dt_dun + k.drag);
+    }
+    double e = 0, f = 0;  // dfc/domega_span, dfn/domega_span
+    if (opt_.rotational) {
+      const double G = c_rot * rho * c * c * dr * kappa, g = G * omega_span;
+      fc -= g * un;
+      fn += g * uc;
+      b -= g;
+      cc += g;
+      e = -G * un;
+      f = G * uc;
+    }
+    const double xq = (x0 - 0.25) * c;
+    f_c += fc;
+    f_n += fn;
+    m_rc += r * fc;
+    m_rn += r * fn;
+    m_xn += xq * fn;
+    // uc and un are -(v0c + r vsc) and -(v0n + r vsn).
+    Eigen::Matrix<double, 1, 5> pc, pn;
+    pc << -a, -a * r, -b, -b * r, e;
+    pn << -cc, -cc * r, -d, -d * r, f;
+    d_in.row(0) += pc;
+    d_in.row(1) += pn;
+    d_in.row(2) += r * pc;
+    d_in.row(3) += r * pn;
+    d_in.row(4) += xq * pn;
+    if (opt_.added_mass) {
+      const double xm = (x0 - 0.5) * c;
+      const double wdot = r * as_n + xm * ac_n + v0_nd + r * vs_nd + xm * vc_nd;
+      const double k_am = -rho * pi / 4 * c * c * dr, fam = k_am * wdot;
+      f_n += fam;
+      m_rn += r * fam;
+      m_xn += xm * fam;
+      Eigen::Matrix<double, 1, 5> pa;
+      pa << k_am * r, k_am * xm, k_am, k_am * r, k_am * xm;
+      d_am.row(1) += pa;
+      d_am.row(3) += r * pa;
+      d_am.row(4) += xm * pa;
+    }
+  }
+  const Eigen::Matrix<double, 5, 6> d_sums = d_in * g_in + d_am * g_am;
+  Wrench out;
+  out.force = f_c * ec + f_n * en;
+  out.moment = pose.hinge.cross(out.force) + m_rc * es.cross(ec) + m_rn * es.cross(en) + m_xn * ec.cross(en);
+  const Eigen::Matrix<double, 3, 6> dF = ec * d_sums.row(0) + en * d_sums.row(1);
+  jac.topRows<3>() = dF;
+  jac.bottomRows<3>() = skew(pose.hinge) * dF + es.cross(ec) * d_sums.row(2) + es.cross(en) * d_sums.row(3) +
+                        ec.cross(en) * d_sums.row(4);
+  return out;
+}
+
+Wrench QuasiSteadyModel::loads_jacobian(const Configuration& config, const SpanQuadrature& span, double t,
+                                        const BodyMotion& motion, Eigen::Matrix<double, 6, 6>& jacobian) const {
+  const double x0 = config.insect().wing.pitch_axis;
+  Eigen::Matrix<double, 6, 6> jr, jl;
+  Wrench total = wing_loads_jacobian(config.wing_pose(Side::right, t), x0, span, motion, jr);
+  total += wing_loads_jacobian(config.wing_pose(Side::left, t), x0, span, motion, jl);
+  jacobian = jr + jl;
+  // Section 6's body drag: F = R_SA f_A(v_A), v_A = R_SA^T (v + Omega x p_c), df_A,i / dv_A,i = -rho C_D A_i |v_A,i|.
+  const Body& bd = config.insect().body;
+  const Wrench body = body_loads(config, motion);
+  total += body;
+  if (bd.drag_coefficient > 0) {
+    const Mat3& r_sa = config.anatomical_to_stability();
+    const Vec3 pc = config.body_centre();
+    const Vec3 va = r_sa.transpose() * (motion.velocity + motion.rate.cross(pc));
+    const Vec3 area = pi / 4 * Vec3(bd.width * bd.height, bd.length * bd.height, bd.length * bd.width);
+    const Vec3 dfa = -opt_.rho * bd.drag_coefficient * area.cwiseProduct(va.cwiseAbs());
+    Eigen::Matrix<double, 3, 6> dva;
+    dva << r_sa.transpose(), -r_sa.transpose() * skew(pc);
+    const Eigen::Matrix<double, 3, 6> dF = r_sa * dfa.asDiagonal() * dva;
+    jacobian.topRows<3>() += dF;
+    jacobian.bottomRows<3>() += skew(pc) * dF;
+  }
+  return total;
 }
 
 // Section 6: quadratic body drag per anatomical axis on the projected ellipse areas, at the body CoM.

@@ -38,6 +38,8 @@ class CoefficientFit {
  public:
   explicit CoefficientFit(CoefficientSet set);
   TranslationalCoefficients operator()(double t) const;
+  // The coefficients and their derivatives d/dt (the same polynomials differentiated).
+  TranslationalCoefficients operator()(double t, TranslationalCoefficients& slope) const;
 
  private:
   static constexpr int pieces = 64, degree = 9;
@@ -66,8 +68,14 @@ class QuasiSteadyModel : public AeroModel {
   // Loads at time t for a configuration and quadrature built once by the caller (the fast path).
   WrenchSample loads(const Configuration& config, const SpanQuadrature& span, double t,
                      const BodyMotion& motion) const;
+  // The total wrench of `loads` and its exact derivative d[F; M] / d[velocity; rate] (6 x 6, SI) at time t:
+  // the blade-element sums differentiated strip by strip (docs/theory/quasi-steady.md, section 9).
+  Wrench loads_jacobian(const Configuration& config, const SpanQuadrature& span, double t, const BodyMotion& motion,
+                        Eigen::Matrix<double, 6, 6>& jacobian) const;
 
  private:
+  Wrench wing_loads_jacobian(const WingPose& pose, double pitch_axis, const SpanQuadrature& span,
+                             const BodyMotion& motion, Eigen::Matrix<double, 6, 6>& jacobian) const;
   Wrench wing_loads(const WingPose& pose, double pitch_axis, const SpanQuadrature& span,
                     const BodyMotion& motion, double& power) const;
   Wrench body_loads(const Configuration& config, const BodyMotion& motion) const;

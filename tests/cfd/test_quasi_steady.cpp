@@ -415,5 +415,40 @@ TEST(QuasiSteadyModel, NameAndSampling) {
   EXPECT_THROW(QuasiSteadyModel(QuasiSteadyOptions{1.2, CoefficientSet::robofly, 0}), std::invalid_argument);
 }
 
+// loads_jacobian: the analytic d[F; M] / d[v; Omega] against central differences of `loads` (steps 1e-6 U and
+// 1e-6 U / c; truncation ~1e-12, rounding ~1e-10 of the scale) at phases through the stroke and its reversals,
+// for both coefficient sets, with a forward-climbing, pitching and rolling body and body drag on: agreement to
+// 1e-7 of the force and moment scales. The wrench it returns is `loads`' total to round-off.
+TEST(QuasiSteadyBodyMotion, AnalyticJacobianMatchesFiniteDifferences) {
+  const Insect in = test_insect(Planform::elliptic, 0.3, 0.6);
+  const Kinematics kin = kinematics(hover_wing(60, 0.1), hover_wing(55, -0.2), 0.1, 0.6);
+  const double U = 2 * kin.stroke_amplitude() * kin.frequency_hz * in.wing.radius_of_moment(2);
+  const Configuration config(in, kin);
+  for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+    const QuasiSteadyModel qs = model(set);
+    const SpanQuadrature span = span_quadrature(in.wing, qs.options().blade_elements);
+    const BodyMotion m0{Vec3(0.2 * U, 0.05 * U, -0.1 * U), Vec3(0.1, -0.3, 0.2) * U / cbar};
+    for (int k = 0; k < 16; ++k) {
+      const double t = kin.period() * (k + 0.37) / 16;
+      Eigen::Matrix<double, 6, 6> J;
+      const Wrench w = qs.loads_jacobian(config, span, t, m0, J);
+      const Wrench w_ref = qs.loads(config, span, t, m0).total();
+      const double fs = std::max(w_ref.force.norm(), 1e-6), ms = fs * R;
+      EXPECT_LT((w.force - w_ref.force).norm(), 1e-13 * fs);
+      EXPECT_LT((w.moment - w_ref.moment).norm(), 1e-13 * ms);
+      for (int j = 0; j < 6; ++j) {
+        const double h = j < 3 ? 1e-6 * U : 1e-6 * U / cbar;
+        BodyMotion p = m0, m = m0;
+        (j < 3 ? p.velocity : p.rate)(j % 3) += h;
+        (j < 3 ? m.velocity : m.rate)(j % 3) -= h;
+        const Wrench wp = qs.loads(config, span, t, p).total(), wm = qs.loads(config, span, t, m).total();
+        const double col = j < 3 ? U : U / cbar;  // d/dv and d/dOmega in units of the scales' rates
+        EXPECT_LT(((wp.force - wm.force) / (2 * h) - J.col(j).head<3>()).norm() * col, 1e-7 * fs) << k << " " << j;
+        EXPECT_LT(((wp.moment - wm.moment) / (2 * h) - J.col(j).tail<3>()).norm() * col, 1e-7 * ms) << k << " " << j;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace flapstab

@@ -6,6 +6,8 @@
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "cfd/aero_factory.hpp"
+#include "cfd/phase_derivatives.hpp"
+#include "core/eom.hpp"
 #include "core/errors.hpp"
 #include "trim/cyclic.hpp"
 #include "trim/ode.hpp"
@@ -128,6 +130,55 @@ TEST(CyclicTrim, MonodromyMatchesPeriodMapDifferences) {
       const double expected = col(states[i]) * scales[j] / scales[i];
       const double got = d.cyclic.monodromy(states[i] - 3, states[j] - 3) * scales[j] / scales[i];
       EXPECT_NEAR(got, expected, 1e-5 * std::max(1.0, std::abs(expected))) << i << "," << j;
+    }
+  }
+}
+
+// The exact Jacobian option: for x' = A x with options.jacobian = A the sensitivities are exp(A t) as with the
+// differenced ones (1e-8 relative).
+TEST(OdeWrapper, ExactJacobianGivesTheSameSensitivities) {
+  Eigen::Matrix3d A;
+  A << -0.5, 3.0, 0.0, -3.0, -0.1, 0.2, 0.1, 0.0, -1.0;
+  const OdeRhs f = [&](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) { dx = A * x; };
+  OdeOptions o;
+  o.jacobian = [&](double, const Eigen::VectorXd&, Eigen::MatrixXd& J) { J = A; };
+  const Eigen::Vector3d x0(1, -2, 0.5);
+  const OdeSolution s = integrate_ode(f, x0, 0, 2.0, {0, 1, 2}, {}, o);
+  const Eigen::Matrix3d E = (A * 2.0).exp();
+  EXPECT_LT((s.x - E * x0).norm(), 1e-9 * x0.norm());
+  EXPECT_LT((s.sensitivity - E).norm(), 1e-8 * E.norm());
+}
+
+// The free system's exact Jacobian (loads_jacobian through body_state_jacobian) against central differences of
+// free_flight_derivative (steps 1e-6 of U, U / c, rad) along the dronefly's cyclic orbit at a perturbed state:
+// agreement to 1e-7 in the scaled units (states / [c, U, U / c, rad], time c / U).
+TEST(CyclicTrim, FreeSystemJacobianMatchesFiniteDifferences) {
+  const Dronefly& d = dronefly();
+  const auto* qs = dynamic_cast<const QuasiSteadyModel*>(d.model.get());
+  ASSERT_NE(qs, nullptr);
+  const InstantaneousAero aero(*d.model, d.c.insect, d.cyclic.kinematics);
+  const SpanQuadrature span = span_quadrature(d.c.insect.wing, qs->options().blade_elements);
+  const ReferenceQuantities ref = reference_quantities(d.c.insect, d.cyclic.kinematics, d.c.fluid);
+  const std::vector<BodyStateVector> orbit = periodic_orbit(aero, d.cyclic.initial_state, 8);
+  for (std::size_t k = 0; k < orbit.size(); ++k) {
+    const double t = d.cyclic.period * double(k) / 8;
+    BodyStateVector x = orbit[k];
+    x.segment<3>(3) += Eigen::Vector3d(0.05, 0.03, -0.02) * ref.U;
+    x.segment<3>(6) += Eigen::Vector3d(-0.04, 0.02, 0.05) * ref.U / ref.c;
+    x.segment<3>(9) += Eigen::Vector3d(0.1, -0.05, 0.2);
+    Eigen::Matrix<double, 6, 6> dw;
+    qs->loads_jacobian(aero.configuration(), span, t, body_motion(x), dw);
+    const Eigen::Matrix<double, 12, 12> J = body_state_jacobian(aero.configuration(), t, x, dw);
+    BodyStateVector scale;  // of each state; its rate's scale is scale * U / c
+    for (int i = 0; i < 12; ++i) scale(i) = i < 3 ? ref.c : i < 6 ? ref.U : i < 9 ? ref.U / ref.c : 1.0;
+    for (int j = 0; j < 12; ++j) {
+      const double s = scale(j), h = 1e-6 * s;
+      BodyStateVector xp = x, xm = x;
+      xp(j) += h;
+      xm(j) -= h;
+      const BodyStateVector fd = (free_flight_derivative(aero, t, xp) - free_flight_derivative(aero, t, xm)) / (2 * h);
+      const double err = ((fd - J.col(j)) * s).cwiseQuotient(scale * (ref.U / ref.c)).cwiseAbs().maxCoeff();
+      EXPECT_LT(err, 1e-7) << "phase " << k << " column " << j;
     }
   }
 }
