@@ -6,6 +6,7 @@
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "cfd/aero_factory.hpp"
+#include "cfd/derivatives.hpp"
 #include "cfd/phase_derivatives.hpp"
 #include "core/eom.hpp"
 #include "core/errors.hpp"
