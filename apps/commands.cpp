@@ -290,7 +290,7 @@ int run_analyze(const CommandOptions& o) {
   j["wall_time_s"] = secs;
   if (!files.figure_notice.empty()) j["figure_notice"] = files.figure_notice;
   if (floquet) j["floquet"] = floquet_json(c, *floquet);
-  if (revolving) j["revolving_comparison"] = revolving_json(*revolving);
+  if (revolving) j["revolving_comparison"] = revolving_json(*revolving, &rep);
   j["verdict"] = report_verdict(inputs);
   if (control) {
     auto lat = [](double tau) -> nlohmann::json {

@@ -43,7 +43,10 @@ FloquetSubsystem subsystem(const std::string& name, const std::vector<int>& idx,
     f.max_multiplier_difference = std::max(
         f.max_multiplier_difference, std::abs(f.phase_resolved.multipliers[i] - f.flow_sensitivity.multipliers[i]));
   f.lti = lti;
-  if (lti) f.lti_eigenvalues_nd = Eigen::EigenSolver<Eigen::MatrixXd>(lti->system_matrix_nd).eigenvalues();
+  if (lti) {
+    f.lti_eigenvalues_nd = Eigen::EigenSolver<Eigen::MatrixXd>(lti->system_matrix_nd).eigenvalues();
+    f.lti_pairing = pair_modes(f.phase_resolved.modes, *lti);
+  }
   return f;
 }
 
@@ -74,6 +77,16 @@ json subsystem_json(const FloquetSubsystem& f) {
   for (Eigen::Index i = 0; i < f.lti_eigenvalues_nd.size(); ++i)
     j["lti_eigenvalues_nd"].push_back({f.lti_eigenvalues_nd(i).real(), f.lti_eigenvalues_nd(i).imag()});
   if (f.lti) j["lti_modes"] = to_json(*f.lti)["modes"];
+  j["mode_pairing"] = json::array();
+  for (const ModePair& p : f.lti_pairing)
+    j["mode_pairing"].push_back({{"floquet_mode", p.a},
+                                 {"floquet_name", f.phase_resolved.modes.modes[p.a].name},
+                                 {"lti_mode", p.b ? json(*p.b) : json(nullptr)},
+                                 {"lti_name", p.b ? json(f.lti->modes[*p.b].name) : json(nullptr)},
+                                 {"similarity", p.similarity}});
+  j["mode_pairing_note"] = "each Floquet mode (index in modes) beside the averaged mode (index in lti_modes) of the "
+                           "most similar eigenvector: greedy-best one-to-one pairing by |m_a^H m_b| / (|m_a| |m_b|) "
+                           "of the motion vectors (docs/theory/modes.md)";
   j["routes"] = {{"phase_resolved",
                   {{"description", "Phi' = A(t) Phi over one wingbeat with CVODE (rtol 1e-10), A(t) a periodic cubic "
                                    "spline through the phase-resolved linearisations"},
@@ -92,13 +105,21 @@ std::string fmt_c(cplx z) { return fmt::format("{:+.5f} {:+.5f}i", z.real(), z.i
 void print_subsystem(const char* title, const FloquetSubsystem& f) {
   fmt::print("{} ({}; non-dimensional per t+ = t U / c, and per wingbeat):\n", title,
              fmt::join(f.phase_resolved.state_order, ", "));
-  fmt::print("  {:<34} {:>26} {:>26} {:>26}\n", "Floquet mode", "exponent (nd)", "log(mu) per wingbeat", "|mu|");
-  for (const Mode& m : f.phase_resolved.modes.modes)
-    fmt::print("  {:<34} {:>26} {:>26} {:>26.6f}\n", m.label, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat),
-               std::exp(m.eigenvalue_per_wingbeat.real()));
+  fmt::print("  {:<40} {:>26} {:>26} {:>12}  {}\n", "Floquet mode", "exponent (nd)", "log(mu) per wingbeat", "|mu|",
+             "averaged mode (eigenvector similarity)");
+  for (const ModePair& p : f.lti_pairing) {
+    const Mode& m = f.phase_resolved.modes.modes[p.a];
+    fmt::print("  {:<40} {:>26} {:>26} {:>12.6f}  {}\n", m.name, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat),
+               std::exp(m.eigenvalue_per_wingbeat.real()),
+               p.b ? fmt::format("{} ({:.3f})", f.lti->modes[*p.b].name, p.similarity) : std::string("-"));
+  }
+  if (f.lti_pairing.empty())
+    for (const Mode& m : f.phase_resolved.modes.modes)
+      fmt::print("  {:<40} {:>26} {:>26} {:>12.6f}\n", m.name, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat),
+                 std::exp(m.eigenvalue_per_wingbeat.real()));
   if (f.lti)
     for (const Mode& m : f.lti->modes)
-      fmt::print("  LTI {:<30} {:>26} {:>26}\n", m.label, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat));
+      fmt::print("  LTI {:<36} {:>26} {:>26}\n", m.name, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat));
   for (const auto& n : f.phase_resolved.notices) fmt::print("  note: {}\n", n);
   fmt::print("  routes agree: max |mu_phase - mu_flow| = {:.2e}\n", f.max_multiplier_difference);
 }

@@ -21,6 +21,8 @@ struct FloquetSubsystem {
   double max_multiplier_difference = 0;  // max over multipliers of |mu_1 - mu_2| (both sorted alike)
   std::optional<StabilityAnalysis> lti;  // the averaged model's modes of the same subsystem
   Eigen::VectorXcd lti_eigenvalues_nd;
+  // Each Floquet mode (phase_resolved.modes) beside the averaged mode of the most similar eigenvector.
+  std::vector<ModePair> lti_pairing;
 };
 
 struct FloquetStudy {

@@ -63,16 +63,33 @@ std::optional<std::string> render_svg(const LinePlot& p, std::string& why) {
   std::string script = fmt::format("set title {}\nset xlabel {}\nset ylabel {}\nset grid\nset key outside right\n",
                                    quote(p.title), quote(p.xlabel), quote(p.ylabel));
   if (p.zero_axes) script += "set xzeroaxis lt -1\nset yzeroaxis lt -1\nset offsets graph 0.1, graph 0.1, graph 0.1, graph 0.1\n";
+  if (p.equal_axes) script += "set size ratio -1\n";
+  if (!p.y2label.empty()) script += fmt::format("set y2label {}\nset y2tics\nset ytics nomirror\n", quote(p.y2label));
+  for (std::size_t i = 0; i < p.labels.size(); ++i) {
+    const PlotLabel& l = p.labels[i];
+    script += fmt::format("set label {} {} at {:.10g},{:.10g} rotate by {:g} offset 0.6,{} noenhanced font ',9'\n", i + 1,
+                          quote(l.text), l.x, l.y, l.angle_deg, l.angle_deg < 0 ? "-0.6" : "0.6");
+  }
   std::vector<std::string> data;
   std::string plot = "plot ";
   for (std::size_t i = 0; i < p.series.size(); ++i) {
+    const Series& s = p.series[i];
     std::string d;
-    for (std::size_t k = 0; k < p.series[i].x.size(); ++k) d += fmt::format("{:.10g} {:.10g}\n", p.series[i].x[k], p.series[i].y[k]);
-    data.push_back(d);
-    plot += fmt::format("{}'d{}.dat' using 1:2 with {} lw 2 title {}", i ? ", " : "", i,
-                        p.points_only ? "points pt 7 ps 1.2" : "lines", quote(p.series[i].title));
+    for (std::size_t k = 0; k < s.x.size(); ++k) d += fmt::format("{:.10g} {:.10g}\n", s.x[k], s.y[k]);
+    data.push_back(d.empty() ? "nan nan\n" : d);
+    const std::string style = !s.style.empty() ? s.style : p.points_only ? "points pt 7 ps 1.2" : "lines";
+    plot += fmt::format("{}'d{}.dat' using 1:2{} with {} lw 2 title {}", i ? ", " : "", i,
+                        s.right_axis ? " axes x1y2" : "", style, quote(s.title));
   }
   return run_gnuplot(script + plot + "\n", data, why);
+}
+
+void stagger_axis_labels(std::vector<PlotLabel>& labels, double tol) {
+  std::vector<PlotLabel*> axis;
+  for (auto& l : labels)
+    if (std::abs(l.y) <= tol) axis.push_back(&l);
+  std::stable_sort(axis.begin(), axis.end(), [](const PlotLabel* a, const PlotLabel* b) { return a->x < b->x; });
+  for (std::size_t i = 0; i < axis.size(); ++i) axis[i]->angle_deg = i % 2 ? -50 : 50;
 }
 
 std::optional<std::string> render_svg(const BarPlot& p, std::string& why) {

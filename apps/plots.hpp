@@ -11,13 +11,28 @@ bool gnuplot_available();
 struct Series {
   std::string title;
   std::vector<double> x, y;
+  std::string style = {};       // gnuplot "with" clause (e.g. "lines dt 2"); empty: the plot's default
+  bool right_axis = false;      // against the y2 axis (LinePlot::y2label)
 };
+
+struct PlotLabel {              // a text beside a point, in data coordinates
+  double x = 0, y = 0;
+  std::string text;
+  double angle_deg = 0;         // rotated about the point: > 0 rises to the right (above it), < 0 falls (below)
+};
+
+// Labels for points of which some lie on the x axis (real roots on the complex plane): those are rotated by
+// +-50 deg, alternately above and below the axis in order of x, so that neighbours do not overwrite each other.
+void stagger_axis_labels(std::vector<PlotLabel>& labels, double axis_tolerance);
 
 struct LinePlot {
   std::string title, xlabel, ylabel;
   std::vector<Series> series;
   bool points_only = false;     // scatter (eigenvalue maps) instead of lines
   bool zero_axes = false;       // draw the x = 0 and y = 0 axes
+  std::vector<PlotLabel> labels = {};
+  bool equal_axes = false;      // one unit is as long on both axes (a circle stays round)
+  std::string y2label = {};     // the right axis, for series with right_axis
 };
 
 // Renders the plot as an SVG document; std::nullopt (and a reason in `why`) if gnuplot is missing or fails.

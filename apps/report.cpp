@@ -8,6 +8,7 @@
 
 #include "apps/floquet_command.hpp"
 #include "apps/plots.hpp"
+#include "apps/results_json.hpp"
 #include "apps/revolving.hpp"
 #include "apps/stability_json.hpp"
 
@@ -68,44 +69,50 @@ std::string complex_str(std::complex<double> z) {
   return fmt::format("{:.4g} ± {:.4g}i", z.real(), std::abs(z.imag()));
 }
 
-// Floquet exponents beside the averaged LTI eigenvalues, one row per mode (conjugates once).
+std::string similarity_str(const ModePair& p) { return p.b ? fmt::format("{:.3f}", p.similarity) : std::string("—"); }
+
+// Floquet exponents beside the averaged LTI mode of the most similar eigenvector, one row per mode (conjugates once).
 std::string floquet_table(const FloquetSubsystem& f) {
-  std::string md = "| Floquet mode | exponent λ⁺ | log μ per wingbeat | multiplier modulus | averaged LTI mode | LTI λ⁺ |\n"
-                   "|---|---|---|---|---|---|\n";
+  std::string md = "| Floquet mode | exponent λ⁺ | log μ per wingbeat | multiplier modulus | averaged LTI mode | LTI λ⁺ | "
+                   "eigenvector similarity |\n|---|---|---|---|---|---|---|\n";
   const auto& fm = f.phase_resolved.modes.modes;
-  const std::size_t n = fm.size();
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < fm.size(); ++i) {
     const Mode& m = fm[i];
-    std::string lti_label = "—", lti_value = "—";
-    if (f.lti && i < f.lti->modes.size()) {
-      lti_label = f.lti->modes[i].label;
-      lti_value = complex_str(f.lti->modes[i].eigenvalue_nd);
+    std::string lti_name = "—", lti_value = "—", similarity = "—";
+    if (f.lti && i < f.lti_pairing.size() && f.lti_pairing[i].b) {
+      const Mode& a = f.lti->modes[*f.lti_pairing[i].b];
+      lti_name = a.name;
+      lti_value = complex_str(a.eigenvalue_nd);
+      similarity = similarity_str(f.lti_pairing[i]);
     }
-    md += fmt::format("| {} | {} | {} | {:.4g} | {} | {} |\n", m.label, complex_str(m.eigenvalue_nd),
-                      complex_str(m.eigenvalue_per_wingbeat), std::exp(m.eigenvalue_per_wingbeat.real()), lti_label,
-                      lti_value);
+    md += fmt::format("| {} | {} | {} | {:.4g} | {} | {} | {} |\n", m.name, complex_str(m.eigenvalue_nd),
+                      complex_str(m.eigenvalue_per_wingbeat), std::exp(m.eigenvalue_per_wingbeat.real()), lti_name,
+                      lti_value, similarity);
   }
   return md;
 }
 
+// Each flapping mode beside the revolving flyer's mode of the most similar eigenvector; revolving modes left
+// unpaired (it has more) follow.
 std::string mode_comparison_table(const StabilityAnalysis& a, const StabilityAnalysis& b) {
-  std::string md = "| flapping mode | λ⁺ | t×2 or t½ (s) | revolving mode | λ⁺ | t×2 or t½ (s) |\n|---|---|---|---|---|---|\n";
+  std::string md = "| flapping mode | λ⁺ | t×2 or t½ (s) | revolving mode | λ⁺ | t×2 or t½ (s) | eigenvector similarity "
+                   "|\n|---|---|---|---|---|---|---|\n";
   auto time = [](const Mode& m) {
     if (m.time_to_double_s) return fmt::format("t×2 {:.3g}", *m.time_to_double_s);
     if (m.time_to_half_s) return fmt::format("t½ {:.3g}", *m.time_to_half_s);
     return std::string("—");
   };
-  for (std::size_t i = 0; i < std::max(a.modes.size(), b.modes.size()); ++i) {
-    md += "| ";
-    md += i < a.modes.size() ? fmt::format("{} | {} | {}", a.modes[i].label, complex_str(a.modes[i].eigenvalue_nd),
-                                           time(a.modes[i]))
-                             : std::string("— | — | —");
-    md += " | ";
-    md += i < b.modes.size() ? fmt::format("{} | {} | {}", b.modes[i].label, complex_str(b.modes[i].eigenvalue_nd),
-                                           time(b.modes[i]))
-                             : std::string("— | — | —");
-    md += " |\n";
+  auto cells = [&](const Mode& m) { return fmt::format("{} | {} | {}", m.name, complex_str(m.eigenvalue_nd), time(m)); };
+  std::vector<bool> paired(b.modes.size(), false);
+  for (const ModePair& p : pair_modes(a, b)) {
+    md += "| " + cells(a.modes[p.a]) + " | ";
+    md += p.b ? cells(b.modes[*p.b]) : std::string("— | — | —");
+    const bool type_changes = p.b && a.modes[p.a].conjugate_pair != b.modes[*p.b].conjugate_pair;
+    md += " | " + similarity_str(p) + (type_changes ? " (root type changes)" : "") + " |\n";
+    if (p.b) paired[*p.b] = true;
   }
+  for (std::size_t j = 0; j < b.modes.size(); ++j)
+    if (!paired[j]) md += "| — | — | — | " + cells(b.modes[j]) + " | — |\n";
   return md;
 }
 
@@ -135,6 +142,7 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
   loads.series = {fx, fz, my};
   keep("figures/loads.svg", render_svg(loads, why));
   // Eigenvalues on the complex plane (non-dimensional), one series per analysis.
+  // Each root labelled with its mode's name (at the Im >= 0 member of a pair).
   LinePlot eig{"Eigenvalues (non-dimensional, per unit tU/c)", "Re λ⁺", "Im λ⁺", {}, true, true};
   for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
     if (!*a) continue;
@@ -142,6 +150,7 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
     for (const auto& m : (*a)->modes) {
       s.x.push_back(m.eigenvalue_nd.real());
       s.y.push_back(m.eigenvalue_nd.imag());
+      eig.labels.push_back({m.eigenvalue_nd.real(), m.eigenvalue_nd.imag(), m.name});
       if (m.conjugate_pair) {
         s.x.push_back(m.eigenvalue_nd.real());
         s.y.push_back(-m.eigenvalue_nd.imag());
@@ -149,7 +158,51 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
     }
     eig.series.push_back(s);
   }
+  stagger_axis_labels(eig.labels, 1e-12);
   keep("figures/eigenvalues.svg", render_svg(eig, why));
+  if (in.floquet) {
+    // Floquet multipliers against the unit circle (|mu| > 1 grows), each mode's multiplier named.
+    LinePlot mu{"Floquet multipliers (one wingbeat)", "Re μ", "Im μ", {}, true, true};
+    Series circle{"unit circle |μ| = 1", {}, {}, "lines dt 2 lc rgb 'gray'"};
+    for (int k = 0; k <= 360; ++k) circle.x.push_back(std::cos(k * deg)), circle.y.push_back(std::sin(k * deg));
+    mu.series.push_back(circle);
+    for (const FloquetSubsystem* f : {&in.floquet->longitudinal, &in.floquet->lateral}) {
+      Series s{f->phase_resolved.name, {}, {}};
+      for (const auto& z : f->phase_resolved.multipliers) s.x.push_back(z.real()), s.y.push_back(z.imag());
+      for (const auto& m : f->phase_resolved.modes.modes) {
+        const std::complex<double> z = std::exp(m.eigenvalue_per_wingbeat);
+        mu.labels.push_back({z.real(), z.imag(), m.name});
+      }
+      mu.series.push_back(s);
+    }
+    mu.equal_axes = true;
+    stagger_axis_labels(mu.labels, 1e-9);
+    keep("figures/floquet_multipliers.svg", render_svg(mu, why));
+    // The body's rocking over the wingbeat on the periodic orbit: deviations from the cycle means.
+    const PhaseDerivatives& ph = in.floquet->phase;
+    if (!ph.samples.empty()) {
+      const double period = in.floquet->cyclic.period;
+      double mx = 0, mz = 0, mt = 0;
+      for (const auto& smp : ph.samples) mx += smp.state(0), mz += smp.state(2), mt += smp.state(10);
+      const double n = double(ph.samples.size());
+      mx /= n, mz /= n, mt /= n;
+      LinePlot orbit{"Body motion over the wingbeat on the periodic hover orbit (deviation from the cycle mean)", "t / T",
+                     "pitch θ (deg)", {}, false, false};
+      orbit.y2label = "position (mm)";
+      Series th{"pitch θ (deg, left axis)", {}, {}}, x{"x, forward (mm, right axis)", {}, {}},
+          z{"z, down (mm, right axis)", {}, {}};
+      x.right_axis = z.right_axis = true;
+      for (std::size_t k = 0; k <= ph.samples.size(); ++k) {  // closed: the orbit's first state again at t = T
+        const auto& smp = ph.samples[k % ph.samples.size()];
+        const double tau = k < ph.samples.size() ? smp.time / period : 1.0;
+        th.x.push_back(tau), th.y.push_back((smp.state(10) - mt) / deg);
+        x.x.push_back(tau), x.y.push_back((smp.state(0) - mx) * 1e3);
+        z.x.push_back(tau), z.y.push_back((smp.state(2) - mz) * 1e3);
+      }
+      orbit.series = {th, x, z};
+      keep("figures/body_oscillation.svg", render_svg(orbit, why));
+    }
+  }
   // Mode shapes: eigenvector magnitudes (attitude-normalised) and phases per state.
   for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
     if (!*a) continue;
@@ -158,7 +211,7 @@ void add_figures(const ReportInputs& in, ReportFiles& out) {
     BarPlot ph{fmt::format("{} mode shapes: phase relative to the attitude (deg)", (*a)->name), "phase (deg)",
                (*a)->state_order, {}, -180, 180};
     for (const auto& m : (*a)->modes) {
-      BarGroup gm{m.label, {}}, gp{m.label, {}};
+      BarGroup gm{m.name, {}}, gp{m.name, {}};
       for (const auto& v : m.eigenvector) {
         gm.values.push_back(std::abs(v));
         gp.values.push_back(std::abs(v) > 1e-9 ? std::arg(v) / deg : 0.0);
@@ -180,7 +233,7 @@ std::string verdict(const ReportInputs& in) {
     if (!*a) continue;
     for (const auto& m : (*a)->modes)
       if (m.eigenvalue_nd.real() > 0) {
-        growing.push_back(fmt::format("{} {}", (*a)->name, m.label));
+        growing.push_back(fmt::format("{} {}", (*a)->name, m.name));
         if (m.time_to_double_wingbeats) fastest = std::min(fastest, *m.time_to_double_wingbeats);
       }
   }
@@ -267,7 +320,7 @@ ReportFiles build_report(const ReportInputs& in) {
     if (!*a) continue;
     for (const auto& m : (*a)->modes)
       if (m.eigenvalue_nd.real() > 0 && m.time_to_double_s)
-        md << fmt::format("- {} {}: doubles in {:.3g} s ({:.3g} wingbeats).\n", (*a)->name, m.label,
+        md << fmt::format("- {} {}: doubles in {:.3g} s ({:.3g} wingbeats).\n", (*a)->name, m.name,
                           *m.time_to_double_s, *m.time_to_double_wingbeats);
   }
   md << "\n## Hover trim\n\n";
@@ -276,9 +329,31 @@ ReportFiles build_report(const ReportInputs& in) {
                     t.solver, t.objective, t.iterations, t.model_runs, t.relative_force_residual,
                     t.relative_moment_residual, t.weight, t.mean_power, t.mean_power / c.insect.total_mass());
   md << "| parameter | trimmed | initial | lower | upper | unit |\n|---|---|---|---|---|---|\n";
-  for (const auto& p : t.parameters)
+  // The trimmed mid-stroke incidences follow pitch_mean_deg (or end the table): what the pitch parameters mean.
+  const auto trimmed_incidence = mid_stroke_incidence(t.kinematics), case_incidence = mid_stroke_incidence(c.kinematics);
+  auto incidence_rows = [&] {
+    if (!trimmed_incidence) return std::string();
+    auto initial = [&](double StrokeIncidence::*half) {
+      return case_incidence ? fmt::format("{:.6g}", (*case_incidence).*half / deg) : std::string("—");
+    };
+    return fmt::format("| incidence at mid-downstroke (t/T = {:.3f}) | {:.6g} | {} | — | — | deg |\n"
+                       "| incidence at mid-upstroke (t/T = {:.3f}) | {:.6g} | {} | — | — | deg |\n",
+                       trimmed_incidence->downstroke_phase, trimmed_incidence->downstroke / deg,
+                       initial(&StrokeIncidence::downstroke), trimmed_incidence->upstroke_phase,
+                       trimmed_incidence->upstroke / deg, initial(&StrokeIncidence::upstroke));
+  };
+  bool incidence_written = false;
+  for (const auto& p : t.parameters) {
     md << fmt::format("| {} | {:.6g} | {:.6g} | {:g} | {:g} | {} |\n", p.label, p.value, p.initial, p.lower, p.upper,
                       p.unit);
+    if (!incidence_written && p.label.rfind("pitch_mean_deg", 0) == 0) md << incidence_rows(), incidence_written = true;
+  }
+  if (!incidence_written) md << incidence_rows();
+  if (trimmed_incidence)
+    md << "\nIncidence: the geometric angle of attack of the right wing, between its chord (towards the leading edge) "
+          "and its velocity relative to the body perpendicular to the span (no induced flow), halfway between the "
+          "stroke reversals; with no deviation rate there it is the pitch angle α at mid-downstroke and 180° − α at "
+          "mid-upstroke.\n";
   md << "\n" << figure_md("figures/loads.svg", "Force and pitching moment over the trimmed wingbeat.", out);
   md << "## Derivatives (non-dimensional)\n\n";
   const ReferenceQuantities& r = d.reference;
@@ -295,7 +370,8 @@ ReportFiles build_report(const ReportInputs& in) {
     md << " |\n";
   }
   md << "\n## Stability\n\n" << stability_markdown(*in.stability) << "\n";
-  md << figure_md("figures/eigenvalues.svg", "Eigenvalues on the complex plane (non-dimensional).", out);
+  md << figure_md("figures/eigenvalues.svg",
+                  "Eigenvalues on the complex plane (non-dimensional), each root named by its mode.", out);
   for (const auto* a : {&in.stability->longitudinal, &in.stability->lateral}) {
     if (!*a) continue;
     md << figure_md(fmt::format("figures/modes_{}_magnitude.svg", (*a)->name),
@@ -322,7 +398,14 @@ ReportFiles build_report(const ReportInputs& in) {
           "trim's kinematics, hence the small differences.\n";
     md << "\n### Longitudinal [u, w, q, θ]\n\n" << floquet_table(f.longitudinal);
     md << "\n### Lateral [v, p, r, φ]\n\n" << floquet_table(f.lateral) << "\n";
-    md << "Exponents λ⁺ are per unit t⁺ = tU/c (log μ / T × c/U); a mode grows when |μ| > 1.\n\n";
+    md << "Exponents λ⁺ are per unit t⁺ = tU/c (log μ / T × c/U); a mode grows when |μ| > 1. Each Floquet mode is "
+          "beside the averaged mode of the most similar eigenvector (1 = the same shape; docs/theory/modes.md).\n\n";
+    md << figure_md("figures/floquet_multipliers.svg",
+                    "Floquet multipliers μ (one wingbeat) and the unit circle: a mode outside the circle grows.", out);
+    md << figure_md("figures/body_oscillation.svg",
+                    "Body pitch and position over one wingbeat on the periodic hover orbit, as deviations from their "
+                    "cycle means (t = 0: the start of the downstroke).",
+                    out);
   }
   if (in.revolving) {
     const RevolvingComparison& r = *in.revolving;
@@ -335,6 +418,9 @@ ReportFiles build_report(const ReportInputs& in) {
         r.trim.kinematics.right.pitch.eval(0).f / deg, r.trim.kinematics.frequency_hz,
         r.trim.kinematics.body_angle / deg, r.trim.kinematics.stroke_plane / deg, r.trim.relative_force_residual,
         r.trim.relative_moment_residual);
+    md << "Each flapping mode is beside the revolving flyer's mode of the most similar eigenvector (similarity 1: the "
+          "same shape; low values: the flyers have no mode of that shape; \"root type changes\": the same motion is a real "
+          "root in one flyer and a complex pair in the other; docs/theory/modes.md).\n\n";
     if (in.stability->longitudinal && r.stability.longitudinal)
       md << "### Longitudinal\n\n" << mode_comparison_table(*in.stability->longitudinal, *r.stability.longitudinal) << "\n";
     if (in.stability->lateral && r.stability.lateral)

@@ -1,11 +1,14 @@
 // JSON forms of trim and derivative results.
 #include "apps/results_json.hpp"
+#include <algorithm>
+#include <cmath>
 #include <fmt/format.h>
 #include <fstream>
 #include <iterator>
 #include "core/series.hpp"
 
 #include "core/hash.hpp"
+#include "core/rotation.hpp"
 
 namespace flapstab {
 
@@ -68,6 +71,62 @@ json kinematics_json(const Kinematics& k) {
           {"left", wing(k.left)}};
 }
 
+std::optional<StrokeIncidence> mid_stroke_incidence(const Kinematics& k) {
+  if (k.revolving() || !(k.frequency_hz > 0)) return std::nullopt;
+  auto state = [&](double tau) { return k.angles(Side::right, tau / k.frequency_hz); };
+  // The reversals: phi sampled over the cycle, the extreme sample refined by a parabola through its neighbours.
+  constexpr int N = 1440;
+  std::vector<double> phi(N);
+  for (int j = 0; j < N; ++j) phi[std::size_t(j)] = state(double(j) / N).phi;
+  auto extreme = [&](bool maximum) {
+    int best = 0;
+    for (int j = 1; j < N; ++j)
+      if (maximum ? phi[std::size_t(j)] > phi[std::size_t(best)] : phi[std::size_t(j)] < phi[std::size_t(best)]) best = j;
+    const double a = phi[std::size_t((best + N - 1) % N)], b = phi[std::size_t(best)], c = phi[std::size_t((best + 1) % N)];
+    const double curvature = a - 2 * b + c;
+    const double shift = curvature != 0 ? std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5) : 0.0;
+    return (best + shift) / N;
+  };
+  const double t_min = extreme(false), t_max = extreme(true);
+  if (t_min == t_max) return std::nullopt;  // no stroke
+  auto wrap = [](double t) { return t - std::floor(t); };
+  // Span direction e_s and chord direction e_c in the stroke-plane frame: W -> P is Rz(-phi) Rx(-theta) Ry(alpha).
+  auto incidence = [&](double tau) {
+    auto axes = [&](double t) {
+      const WingAngleState a = state(t);
+      return Mat3(rot_z(-a.phi) * rot_x(-a.theta) * rot_y(a.alpha));
+    };
+    const double h = 1e-6;
+    const Vec3 span_velocity = (axes(tau + h).col(1) - axes(tau - h).col(1)) / (2 * h);  // d e_s / d tau
+    const Mat3 R = axes(tau);
+    const Vec3 e_s = R.col(1), e_c = R.col(0);
+    const Vec3 v = span_velocity - span_velocity.dot(e_s) * e_s;
+    return std::acos(std::clamp(e_c.dot(v) / v.norm(), -1.0, 1.0));
+  };
+  StrokeIncidence out;
+  out.downstroke_phase = wrap(t_min + 0.5 * wrap(t_max - t_min));
+  out.upstroke_phase = wrap(t_max + 0.5 * wrap(t_min - t_max));
+  out.downstroke = incidence(out.downstroke_phase);
+  out.upstroke = incidence(out.upstroke_phase);
+  return out;
+}
+
+namespace {
+json incidence_json(const Kinematics& k) {
+  const auto i = mid_stroke_incidence(k);
+  if (!i) return nullptr;
+  return {{"mid_downstroke_deg", i->downstroke / deg},
+          {"mid_upstroke_deg", i->upstroke / deg},
+          {"mid_downstroke_phase", i->downstroke_phase},
+          {"mid_upstroke_phase", i->upstroke_phase},
+          {"definition",
+           "geometric angle of attack of the right wing: the angle between the chord (towards the leading edge) and "
+           "the wing's velocity relative to the body perpendicular to the span, at r2 (no induced flow), at the "
+           "instants halfway between the stroke reversals (phase t/T); < 90 deg: leading edge first; equals alpha "
+           "at mid-downstroke and 180 deg - alpha at mid-upstroke when the deviation rate is zero there"}};
+}
+}  // namespace
+
 json trim_json(const TrimResult& r) {
   json params = json::array();
   for (const auto& p : r.parameters)
@@ -88,6 +147,7 @@ json trim_json(const TrimResult& r) {
             {"moment_relative_to_weight_times_wing_length", r.relative_moment_residual}}},
           {"weight_N", r.weight},
           {"mean_aerodynamic_power_W", r.mean_power},
+          {"incidence", incidence_json(r.kinematics)},
           {"kinematics", kinematics_json(r.kinematics)}};
 }
 

@@ -17,8 +17,10 @@ Case revolving_equivalent(const Case& flapping, const Kinematics& trimmed) {
   k = trimmed;
   // Mean |dphi/dt| of a flapping stroke = 2 Phi n; a revolution per cycle sweeps 2 pi n.
   k.frequency_hz = trimmed.stroke_amplitude() * trimmed.frequency_hz / pi;
-  // Mean of the mid-downstroke (alpha) and mid-upstroke (180 deg - alpha) incidences.
-  const double incidence = 0.5 * (trimmed.right.pitch.eval(0.25).f + pi - trimmed.right.pitch.eval(0.75).f);
+  // Mean of the mid-downstroke and mid-upstroke geometric incidences (alpha and 180 deg - alpha at mid-stroke).
+  const auto mid = mid_stroke_incidence(trimmed);
+  if (!mid) throw InputError(flapping.path, "kinematics", "has no stroke reversals", "flapping kinematics");
+  const double incidence = 0.5 * (mid->downstroke + mid->upstroke);
   k.right.stroke = FourierSeries{0.0, {}, {}, 2 * pi};
   k.right.deviation = FourierSeries{};
   k.right.pitch = FourierSeries{std::clamp(incidence, 1 * deg, 90 * deg), {}, {}};
@@ -48,8 +50,32 @@ RevolvingComparison compare_with_revolving(const Case& flapping, const Kinematic
   return r;
 }
 
-nlohmann::json revolving_json(const RevolvingComparison& r) {
-  return {{"description",
+nlohmann::json mode_pairing_json(const StabilityAnalysis& flapping, const StabilityAnalysis& revolving) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const ModePair& p : pair_modes(flapping, revolving)) {
+    const Mode& f = flapping.modes[p.a];
+    j.push_back({{"flapping_mode", p.a},
+                 {"flapping_name", f.name},
+                 {"revolving_mode", p.b ? nlohmann::json(*p.b) : nlohmann::json(nullptr)},
+                 {"revolving_name", p.b ? nlohmann::json(revolving.modes[*p.b].name) : nlohmann::json(nullptr)},
+                 {"similarity", p.similarity}});
+  }
+  return j;
+}
+
+nlohmann::json revolving_json(const RevolvingComparison& r, const StabilityReport* flapping) {
+  nlohmann::json pairing = nlohmann::json::object();
+  if (flapping) {
+    if (flapping->longitudinal && r.stability.longitudinal)
+      pairing["longitudinal"] = mode_pairing_json(*flapping->longitudinal, *r.stability.longitudinal);
+    if (flapping->lateral && r.stability.lateral)
+      pairing["lateral"] = mode_pairing_json(*flapping->lateral, *r.stability.lateral);
+  }
+  return {{"mode_pairing", pairing},
+          {"mode_pairing_note", "each flapping mode (index in the flapping analysis) beside the revolving flyer's mode "
+                                "of the most similar eigenvector (greedy-best one-to-one pairing; similarity "
+                                "|m_a^H m_b| / (|m_a| |m_b|) of the motion vectors, docs/theory/modes.md)"},
+          {"description",
            "equivalent revolving-wing flyer: same insect, wings revolving at the flapping wings' mean stroke speed "
            "with fixed pitch equal to the mean of the flapping mid-downstroke and mid-upstroke incidences, trimmed to the "
            "same weight "

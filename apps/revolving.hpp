@@ -1,5 +1,6 @@
 // The equivalent revolving-wing flyer: the same insect with its wings revolving at constant speed
-// (the flapping wings' mean speed at r2), fixed pitch (the mean mid-stroke incidence of the flapping wings),
+// (the flapping wings' mean speed at r2), fixed pitch (the mean mid-stroke incidence of the flapping wings,
+// apps/results_json.hpp mid_stroke_incidence),
 // trimmed to the same weight; its modes beside the flapping flyer's.
 #pragma once
 #include <nlohmann/json.hpp>
@@ -24,6 +25,11 @@ Case revolving_equivalent(const Case& flapping, const Kinematics& trimmed);
 // Trim, derivatives and stability of the equivalent revolving flyer (throws SolveError if its trim fails).
 RevolvingComparison compare_with_revolving(const Case& flapping, const Kinematics& trimmed, const AeroModel& model);
 
-nlohmann::json revolving_json(const RevolvingComparison& r);
+// Each flapping mode paired with the revolving flyer's mode of the most similar eigenvector (stability/modes.hpp
+// pair_modes), as {flapping_mode, flapping_name, revolving_mode, revolving_name, similarity}.
+nlohmann::json mode_pairing_json(const StabilityAnalysis& flapping, const StabilityAnalysis& revolving);
+
+// With `flapping` (the flapping flyer's stability), also `mode_pairing` per analysis.
+nlohmann::json revolving_json(const RevolvingComparison& r, const StabilityReport* flapping = nullptr);
 
 }  // namespace flapstab

@@ -40,6 +40,12 @@ json conventions_json() {
        "t+ = t U/c; u+ = u/U; p+ = p c/U; forces / (1/2 rho U^2 S_t); moments / (1/2 rho U^2 S_t c); "
        "m+ = m/(1/2 rho S_t c); I+ = I/(1/2 rho S_t c^3); g+ = g c/U^2; lambda+ = lambda c/U"},
       {"system", "d/dt+ x = A x, A = system_matrix_nd (rows and columns in state_order)"},
+      {"names", "name: the rigid-body motions (pitch, roll, yaw, surge, sway, heave) whose size in comparable "
+                "non-dimensional units (velocities / U; rotations as the wing-tip speed they give, R/c x rate x c / U, "
+                "the rate or lambda+ x attitude) is at least 0.3 of the largest (motion_magnitude), in that fixed order, then oscillation (prefixed stable/unstable), "
+                "subsidence, divergence or neutral mode; prefixed fast/slow only where two modes of one analysis would "
+                "share a name. The same root has the same name in every analysis; modes of two analyses are paired by "
+                "eigenvector similarity (docs/theory/modes.md)"},
       {"labels", "oscillatory (complex pair, reported by its Im > 0 member) | subsidence (stable real) | "
                  "divergence (unstable real) | neutral (|Re| within tolerance of 0); prefixed stable/unstable; "
                  "ranked fast/slow (intermediate between) by |lambda| among modes sharing a label"},
@@ -77,7 +83,12 @@ json to_json(const Mode& m, const std::vector<std::string>& states) {
     mag.push_back(std::abs(z));
     phase.push_back(std::arg(z) * 180.0 / pi);
   }
+  json magnitude = json::object();
+  for (const auto& [motion, r] : m.motion_magnitude) magnitude[motion] = r;
   return {
+      {"name", m.name},
+      {"motions", m.motions},
+      {"motion_magnitude", magnitude},
       {"label", m.label},
       {"kind", to_string(m.kind)},
       {"stability", to_string(m.stability)},
@@ -127,6 +138,19 @@ json to_json(const StabilityAnalysis& a) {
           {"modes", modes}};
 }
 
+std::vector<SubsystemMatch> subsystem_correspondence(const StabilityReport& r) {
+  std::vector<SubsystemMatch> out;
+  if (!r.coupled) return out;
+  for (std::size_t i = 0; i < r.coupled->modes.size(); ++i) out.push_back({i, "", 0, "", 0});
+  for (const auto* sub : {&r.longitudinal, &r.lateral}) {
+    if (!*sub) continue;
+    for (const ModePair& p : pair_modes(*r.coupled, **sub))
+      if (p.b && p.similarity > out[p.a].similarity)
+        out[p.a] = {p.a, (*sub)->name, *p.b, (*sub)->modes[*p.b].name, p.similarity};
+  }
+  return out;
+}
+
 json to_json(const StabilityReport& r) {
   const auto& ref = r.reference;
   const auto& nd = r.nondimensional;
@@ -140,7 +164,16 @@ json to_json(const StabilityReport& r) {
                                            {"time_scale_s", nd.time_scale_s}}}};
   j["longitudinal"] = r.longitudinal ? to_json(*r.longitudinal) : json(nullptr);
   j["lateral"] = r.lateral ? to_json(*r.lateral) : json(nullptr);
-  if (r.six_dof_requested) j["6dof"] = r.coupled ? to_json(*r.coupled) : json(nullptr);
+  if (r.six_dof_requested) {
+    j["6dof"] = r.coupled ? to_json(*r.coupled) : json(nullptr);
+    if (r.coupled)
+      for (const auto& c : subsystem_correspondence(r)) {
+        json& m = j["6dof"]["modes"][c.coupled];
+        m["subsystem_mode"] = c.analysis.empty() ? json(nullptr)
+                                                 : json{{"analysis", c.analysis}, {"index", c.index},
+                                                        {"name", c.name}, {"similarity", c.similarity}};
+      }
+  }
   j["notices"] = r.notices;
   return j;
 }
@@ -151,7 +184,8 @@ std::string modes_markdown(const StabilityAnalysis& a) {
   std::string md = fmt::format(
       "State order [{}]: {}. Hover stability axes (x forward, y right, z down). Eigenvalues λ⁺ per unit "
       "t⁺ = tU/c (c/U = {:.4g} s) and in s⁻¹; times in seconds and wingbeats ({:.4g} Hz); "
-      "eigenvectors scaled to the attitude component; dominant states by participation.\n\n",
+      "eigenvectors scaled to the attitude component; dominant states by participation; modes named by the "
+      "rigid-body motions of their eigenvectors (docs/theory/modes.md).\n\n",
       join(a.state_order, ", "), join(units, ", "), a.reference.time_scale(), a.reference.frequency);
   md += "| mode | λ⁺ | λ (1/s) | ζ | ωn (Hz) | period (s) | period (wingbeats) | t½ or t×2 (s) | "
         "t½ or t×2 (wingbeats) | dominant states |\n";
@@ -161,7 +195,7 @@ std::string modes_markdown(const StabilityAnalysis& a) {
     if (m.time_to_half_s) t_s = "t½ " + fmt_num(*m.time_to_half_s), t_wb = "t½ " + fmt_num(*m.time_to_half_wingbeats);
     if (m.time_to_double_s)
       t_s = "t×2 " + fmt_num(*m.time_to_double_s), t_wb = "t×2 " + fmt_num(*m.time_to_double_wingbeats);
-    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", m.label, fmt_complex(m.eigenvalue_nd),
+    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", m.name, fmt_complex(m.eigenvalue_nd),
                       fmt_complex(m.eigenvalue_per_s), fmt_opt(m.damping_ratio), fmt_num(m.natural_frequency_hz),
                       fmt_opt(m.period_s), fmt_opt(m.period_wingbeats), t_s, t_wb, join(m.dominant_states, ", "));
   }
@@ -176,6 +210,16 @@ std::string stability_markdown(const StabilityReport& r) {
   section("Longitudinal", r.longitudinal);
   section("Lateral", r.lateral);
   section("Coupled 6DoF", r.coupled);
+  if (r.coupled && (r.longitudinal || r.lateral)) {
+    std::vector<std::string> pairs;
+    for (const auto& c : subsystem_correspondence(r))
+      pairs.push_back(c.analysis.empty()
+                          ? fmt::format("{}: no subsystem mode", r.coupled->modes[c.coupled].name)
+                          : fmt::format("{}: {} {} ({:.3f})", r.coupled->modes[c.coupled].name, c.analysis, c.name,
+                                        c.similarity));
+    md += "Coupled modes and the subsystem modes they are, paired by eigenvector similarity (1 = the same shape): " +
+          join(pairs, "; ") + ".\n\n";
+  }
   if (!r.notices.empty()) {
     md += "Notices:\n\n";
     for (const auto& n : r.notices) md += "- " + n + "\n";

@@ -15,6 +15,17 @@ nlohmann::json to_json(const StabilityAnalysis& analysis);
 // and (when requested) `6dof` — null where skipped — and `notices`.
 nlohmann::json to_json(const StabilityReport& report);
 
+// Each mode of the coupled 6DoF analysis beside the longitudinal or lateral mode it is (pair_modes with each
+// subsystem, the more similar kept); analysis empty where neither pairs with it.
+struct SubsystemMatch {
+  std::size_t coupled = 0;  // index in the 6DoF modes
+  std::string analysis;     // "longitudinal" | "lateral" | ""
+  std::size_t index = 0;    // in that analysis' modes
+  std::string name;
+  double similarity = 0;
+};
+std::vector<SubsystemMatch> subsystem_correspondence(const StabilityReport& report);
+
 // Markdown table of one analysis' modes, preceded by its state order and units (for report.md).
 std::string modes_markdown(const StabilityAnalysis& analysis);
 // Every analysis of the report under its own heading, then the notices.

@@ -126,7 +126,139 @@ void rank_and_label(std::vector<Mode>& modes) {
   }
 }
 
+// The rigid-body motion a state describes and whether it is the attitude (integrated rate) of that motion.
+struct StateMotion {
+  const char* motion;
+  const char* rate;      // the velocity or rate state
+  const char* attitude;  // the angle state, or nullptr
+};
+constexpr StateMotion motion_table[] = {{"pitch", "q", "theta"}, {"roll", "p", "phi"}, {"yaw", "r", "psi"},
+                                        {"surge", "u", nullptr}, {"sway", "v", nullptr}, {"heave", "w", nullptr}};
+
+bool known_state(const std::string& s) {
+  for (const auto& t : motion_table)
+    if (s == t.rate || (t.attitude && s == t.attitude)) return true;
+  return false;
+}
+
+std::string join_motions(const std::vector<std::string>& motions) {
+  std::string s;
+  for (const auto& m : motions) s += (s.empty() ? "" : "-") + m;
+  return s;
+}
+
+// Name without the speed rank (docs/theory/modes.md).
+std::string base_name(const Mode& m) {
+  const std::string motions = join_motions(m.motions);
+  switch (m.kind) {
+    case ModeKind::oscillatory: return to_string(m.stability) + " " + motions + " oscillation";
+    case ModeKind::subsidence: return motions + " subsidence";
+    case ModeKind::divergence: return motions + " divergence";
+    case ModeKind::neutral: return "neutral " + motions + (m.period_nd ? " oscillation" : " mode");
+  }
+  return {};
+}
+
+// Motions, their magnitudes and the name of every mode; modes that would share a name are ranked
+// fast/slow (intermediate) by |lambda| as the labels are.
+void name_modes(StabilityAnalysis& a, double threshold) {
+  std::map<std::string, std::vector<Mode*>> groups;
+  const double arm = wing_length_in_chords(a.reference);
+  for (auto& m : a.modes) {
+    const auto motions = mode_motions(m, a.state_order, arm);
+    double top = 0;
+    for (const auto& [name, z] : motions) top = std::max(top, std::abs(z));
+    for (const auto& [name, z] : motions) {
+      const double r = top > 0 ? std::abs(z) / top : 0.0;
+      m.motion_magnitude.emplace_back(name, r);
+      if (r >= threshold) m.motions.push_back(name);
+    }
+    groups[base_name(m)].push_back(&m);
+  }
+  for (auto& [base, group] : groups) {
+    std::stable_sort(group.begin(), group.end(),
+                     [](const Mode* x, const Mode* y) { return std::abs(x->eigenvalue_nd) > std::abs(y->eigenvalue_nd); });
+    for (std::size_t i = 0; i < group.size(); ++i)
+      group[i]->name = group.size() < 2 ? base
+                       : (i == 0 ? "fast " : i + 1 == group.size() ? "slow " : "intermediate ") + base;
+  }
+}
+
 }  // namespace
+
+double wing_length_in_chords(const ReferenceQuantities& ref) {
+  return ref.S_t > 0 && ref.c > 0 ? ref.S_t / (2 * ref.c * ref.c) : 1.0;
+}
+
+std::vector<std::pair<std::string, cplx>> mode_motions(const Mode& m, const std::vector<std::string>& states,
+                                                       double arm) {
+  auto index = [&](const char* s) -> std::optional<std::size_t> {
+    if (!s) return std::nullopt;
+    const auto it = std::find(states.begin(), states.end(), s);
+    if (it == states.end()) return std::nullopt;
+    return std::size_t(it - states.begin());
+  };
+  // Rotations from the rate where it is a state, else lambda+ times the attitude; `raw_attitude` takes the attitude
+  // itself (a neutral root: lambda+ = 0, the motion is a pure change of attitude or position).
+  auto build = [&](bool raw_attitude) {
+    std::vector<std::pair<std::string, cplx>> out;
+    for (const auto& t : motion_table) {
+      const auto r = index(t.rate), a = index(t.attitude);
+      const bool rotation = t.attitude != nullptr;
+      const double scale = rotation ? arm : 1.0;
+      if (raw_attitude && a) out.emplace_back(t.motion, m.eigenvector[*a]);
+      else if (r) out.emplace_back(t.motion, scale * m.eigenvector[*r]);
+      else if (a) out.emplace_back(t.motion, scale * m.eigenvalue_nd * m.eigenvector[*a]);
+    }
+    for (std::size_t i = 0; i < states.size(); ++i)
+      if (!known_state(states[i])) out.emplace_back(states[i], m.eigenvector[i]);
+    return out;
+  };
+  auto motions = build(false);
+  double top = 0, largest = 0;
+  for (const auto& [name, z] : motions) top = std::max(top, std::abs(z));
+  for (const auto& z : m.eigenvector) largest = std::max(largest, std::abs(z));
+  if (!(top > 1e-12 * largest)) motions = build(true);
+  return motions;
+}
+
+double mode_similarity(const Mode& a, const std::vector<std::string>& states_a, const Mode& b,
+                       const std::vector<std::string>& states_b, double arm_a, double arm_b) {
+  const auto ma = mode_motions(a, states_a, arm_a), mb = mode_motions(b, states_b, arm_b);
+  double na = 0, nb = 0;
+  for (const auto& [n, z] : ma) na += std::norm(z);
+  for (const auto& [n, z] : mb) nb += std::norm(z);
+  cplx same = 0, conjugate = 0;
+  for (const auto& [n, za] : ma)
+    for (const auto& [k, zb] : mb)
+      if (n == k) same += std::conj(za) * zb, conjugate += std::conj(za) * std::conj(zb);
+  if (!(na > 0 && nb > 0)) return 0;
+  const double dot = a.conjugate_pair && b.conjugate_pair ? std::max(std::abs(same), std::abs(conjugate)) : std::abs(same);
+  return std::min(1.0, dot / std::sqrt(na * nb));
+}
+
+std::vector<ModePair> pair_modes(const StabilityAnalysis& a, const StabilityAnalysis& b) {
+  struct Candidate {
+    std::size_t i, j;
+    double s;
+  };
+  std::vector<Candidate> all;
+  const double arm_a = wing_length_in_chords(a.reference), arm_b = wing_length_in_chords(b.reference);
+  for (std::size_t i = 0; i < a.modes.size(); ++i)
+    for (std::size_t j = 0; j < b.modes.size(); ++j)
+      all.push_back({i, j, mode_similarity(a.modes[i], a.state_order, b.modes[j], b.state_order, arm_a, arm_b)});
+  std::stable_sort(all.begin(), all.end(), [](const Candidate& x, const Candidate& y) { return x.s > y.s; });
+  std::vector<ModePair> out(a.modes.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i].a = i;
+  std::vector<bool> used_b(b.modes.size(), false);
+  for (const auto& c : all) {
+    if (out[c.i].b || used_b[c.j]) continue;
+    out[c.i].b = c.j;
+    out[c.i].similarity = c.s;
+    used_b[c.j] = true;
+  }
+  return out;
+}
 
 std::string to_string(ModeKind k) {
   switch (k) {
@@ -219,6 +351,7 @@ StabilityAnalysis analyse_modes(const StateSpace& sys, const ReferenceQuantities
   }
 
   rank_and_label(out.modes);
+  name_modes(out, opt.motion_threshold);
   std::stable_sort(out.modes.begin(), out.modes.end(), [](const Mode& a, const Mode& b) {
     if (a.eigenvalue_nd.real() != b.eigenvalue_nd.real()) return a.eigenvalue_nd.real() > b.eigenvalue_nd.real();
     return std::abs(a.eigenvalue_nd.imag()) > std::abs(b.eigenvalue_nd.imag());

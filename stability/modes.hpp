@@ -5,10 +5,17 @@
 // are prefixed `stable`/`unstable` and, where several modes share a label, ranked `fast`/`slow`
 // by |lambda| ("intermediate" between them when three or more share it), e.g.
 // "stable fast subsidence". All tolerances are relative to the largest |A_ij| (the matrix scale).
+//
+// Besides that label, each mode gets a physical name that does not depend on which other modes share
+// its table (docs/theory/modes.md): the rigid-body motions its eigenvector moves, in comparable
+// non-dimensional units, and its root type, e.g. "unstable pitch-surge oscillation", "heave subsidence",
+// "roll-sway divergence". pair_modes matches the modes of two analyses (averaged and Floquet, flapping
+// and revolving, a subsystem and the coupled 6DoF system) by eigenvector similarity.
 #pragma once
 #include <complex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 #include "core/derivative_table.hpp"
 #include "stability/lti.hpp"
@@ -51,6 +58,16 @@ struct Mode {
   // ModeOptions::dominant_threshold times the largest, largest first.
   std::vector<double> participation;
   std::vector<std::string> dominant_states;
+
+  // Physical name (docs/theory/modes.md), e.g. "unstable pitch-surge oscillation", "heave subsidence":
+  // the named motions in the fixed order pitch, roll, yaw, surge, sway, heave, then the root type
+  // (oscillation, prefixed stable/unstable; subsidence; divergence; neutral mode), prefixed fast/slow
+  // only where several modes of one analysis would carry the same name.
+  std::string name;
+  std::vector<std::string> motions;              // the named motions, in that order
+  // Size of each rigid-body motion of the mode relative to its largest (1), in comparable non-dimensional
+  // units (see mode_motions), in the fixed order; only the motions the states describe.
+  std::vector<std::pair<std::string, double>> motion_magnitude;
 };
 
 struct ModeOptions {
@@ -65,6 +82,8 @@ struct ModeOptions {
   double attitude_negligible = 1e-3;
   // A state is dominant when its participation is at least this fraction of the largest.
   double dominant_threshold = 0.2;
+  // A motion is named when its magnitude is at least this fraction of the largest motion's.
+  double motion_threshold = 0.3;
 };
 
 struct StabilityAnalysis {
@@ -82,5 +101,36 @@ struct StabilityAnalysis {
 // converted to seconds (reference.U, reference.c) and wingbeats (reference.frequency).
 StabilityAnalysis analyse_modes(const StateSpace& sys, const ReferenceQuantities& reference,
                                 const ModeOptions& options = {});
+
+// The rigid-body motions of a mode in comparable non-dimensional units: translations as velocities u/U
+// (surge), v/U (sway), w/U (heave); rotations as the velocity they give the wing tip, R/c times q c/U (pitch),
+// p c/U (roll), r c/U (yaw), the rate taken as lambda+ theta (lambda+ phi, lambda+ psi) where it is not a state.
+// `wing_length` is R/c (wing_length_in_chords). A state of another name is its own motion. Complex components
+// (the eigenvector's), in the fixed order pitch, roll, yaw, surge, sway, heave.
+std::vector<std::pair<std::string, std::complex<double>>> mode_motions(const Mode& m,
+                                                                       const std::vector<std::string>& states,
+                                                                       double wing_length = 1.0);
+
+// One wing's length in mean chords, R/c = S_t / (2 c^2) (S_t = 2 R c for any planform); 1 where S_t or c is unset.
+double wing_length_in_chords(const ReferenceQuantities& reference);
+
+// Eigenvector similarity |m_a^H m_b| / (|m_a| |m_b|) of the motion vectors (mode_motions, each with its own
+// wing length) on the motions both describe, the norms over all of each: 1 for the same shape, 0 for motions in
+// different states. Two oscillatory modes compare with either member of the other's conjugate pair (the larger).
+double mode_similarity(const Mode& a, const std::vector<std::string>& states_a, const Mode& b,
+                       const std::vector<std::string>& states_b, double wing_length_a = 1.0,
+                       double wing_length_b = 1.0);
+
+// A mode of analysis `a` and its partner in `b` (none when b has fewer modes).
+struct ModePair {
+  std::size_t a = 0;
+  std::optional<std::size_t> b;
+  double similarity = 0;
+};
+
+// One-to-one pairing of a's modes with b's by eigenvector similarity (wing lengths from each analysis' reference),
+// greedy-best: the most similar free
+// pair first, then the next, until one side is used up. One entry per mode of a, in a's order.
+std::vector<ModePair> pair_modes(const StabilityAnalysis& a, const StabilityAnalysis& b);
 
 }  // namespace flapstab
