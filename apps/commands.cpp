@@ -33,11 +33,18 @@ std::string cfd_cache(const CommandOptions& o, const Case& c) {
 
 TrimResult trimmed(const Case& c, const AeroModel& model) {
   TrimResult t = trim_hover(c, model);
-  if (!t.converged)
+  if (!t.converged) {
+    const auto active = t.active_bounds();
+    std::string held;
+    for (const auto& a : active) held += (held.empty() ? "" : "; ") + a;
     throw SolveError(fmt::format(
         "{}: trim did not converge ({}); residuals: force {:.3e} of weight, moment {:.3e} of weight x wing "
-        "length (tolerance {:.1e}). Widen the [[trim.parameter]] bounds (key 'trim.parameter') or free other parameters.",
-        c.path, t.message, t.relative_force_residual, t.relative_moment_residual, c.trim.tolerance));
+        "length (tolerance {:.1e}). {}",
+        c.path, t.message, t.relative_force_residual, t.relative_moment_residual, c.trim.tolerance,
+        active.empty() ? std::string("No parameter ends on a bound: free other parameters ([[trim.parameter]]) or "
+                                     "raise trim.max_iterations.")
+                       : "Held by " + held + ": widen that bound or free other parameters ([[trim.parameter]])."));
+  }
   return t;
 }
 
@@ -84,8 +91,10 @@ int run_trim_hover(const CommandOptions& o) {
   j["trim"] = trim_json(t);
   j["wall_time_s"] = secs;
   const std::string text = j.dump(2) + "\n";
-  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
-  if (!o.output_dir.empty()) write_file_atomic(o.output_dir + "/trim.json", text);
+  std::vector<std::pair<std::string, std::string>> out;
+  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
+  if (!o.output_dir.empty()) out.emplace_back(o.output_dir + "/trim.json", text);
+  write_files_atomic(out);
   if (!o.quiet) print_trim(c, t, secs);
   return 0;
 }
@@ -115,11 +124,13 @@ int run_derivatives(const CommandOptions& o) {
   DerivativeTable table = d.table;
   table.source = c.path + " (" + d.table.source + ")";
   const std::string toml = derivative_table_toml(table);
-  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
+  std::vector<std::pair<std::string, std::string>> out;
+  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
   if (!o.output_dir.empty()) {
-    write_file_atomic(o.output_dir + "/derivatives.json", text);
-    write_file_atomic(o.output_dir + "/derivatives.toml", toml);
+    out.emplace_back(o.output_dir + "/derivatives.json", text);
+    out.emplace_back(o.output_dir + "/derivatives.toml", toml);
   }
+  write_files_atomic(out);
   if (!o.quiet) {
     print_trim(c, t, secs);
     fmt::print("cycle-averaged derivatives (non-dimensional, hover stability axes; rows X Y Z L M N, "
@@ -203,11 +214,13 @@ int run_stability(const CommandOptions& o) {
   j["stability"] = stability_json(rep, o.model);
   j["wall_time_s"] = seconds_since(t0);
   const std::string text = j.dump(2) + "\n";
-  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
+  std::vector<std::pair<std::string, std::string>> out;
+  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
   if (!o.output_dir.empty()) {
-    write_file_atomic(o.output_dir + "/stability.json", text);
-    write_file_atomic(o.output_dir + "/stability.md", stability_markdown(rep));
+    out.emplace_back(o.output_dir + "/stability.json", text);
+    out.emplace_back(o.output_dir + "/stability.md", stability_markdown(rep));
   }
+  write_files_atomic(out);
   if (!o.quiet) fmt::print("{}", stability_markdown(rep));
   return 0;
 }
@@ -308,10 +321,12 @@ int run_analyze(const CommandOptions& o) {
                     {"neutral_axis_z_m", control->neutral.z_at_com}};
   }
   j["notices"] = notices;
-  std::string csv =
-      "# loads over the trimmed wingbeat; hover stability axes (x forward, y right, z down), about the wingbeat-mean "
-      "CoM; SI units (s, N, N m, W)\n"
-      "t_s,X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,Z_right_N,Z_left_N,power_W\n";
+  // One header row, units in the column names (pandas.read_csv reads it with no options); axes in results.json.
+  j["files"]["loads.csv"] = {{"rows", "the loads over the trimmed wingbeat, one row per sample"},
+                             {"axes", "hover stability axes (x forward, y right, z down), moments about the "
+                                      "wingbeat-mean centre of mass"},
+                             {"units", "SI: s, N, N m, W"}};
+  std::string csv = "t_s,X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,Z_right_N,Z_left_N,power_W\n";
   for (const auto& s : history.samples) {
     const Wrench w = s.total();
     csv += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", s.time, w.force.x(),
@@ -320,13 +335,14 @@ int run_analyze(const CommandOptions& o) {
   }
   DerivativeTable table = d.table;
   table.source = c.path + " (" + d.table.source + ")";
-  // Everything is computed; only now are files written (each atomically).
-  write_file_atomic(dir + "/results.json", j.dump(2) + "\n");
-  write_file_atomic(dir + "/derivatives.toml", derivative_table_toml(table));
-  write_file_atomic(dir + "/loads.csv", csv);
-  for (const auto& [name, svg] : files.figures) write_file_atomic(dir + "/" + name, svg);
-  write_file_atomic(dir + "/report.md", files.markdown);
-  write_file_atomic(dir + "/report.html", files.html);
+  // Everything is computed; only now is the set written, as one (write_files_atomic: all or none, locked).
+  std::vector<std::pair<std::string, std::string>> out = {{dir + "/results.json", j.dump(2) + "\n"},
+                                                          {dir + "/derivatives.toml", derivative_table_toml(table)},
+                                                          {dir + "/loads.csv", csv}};
+  for (const auto& [name, svg] : files.figures) out.emplace_back(dir + "/" + name, svg);
+  out.emplace_back(dir + "/report.md", files.markdown);
+  out.emplace_back(dir + "/report.html", files.html);
+  write_files_atomic(out);
   if (!o.quiet) {
     print_trim(c, t, secs);
     fmt::print("{}", stability_markdown(rep));

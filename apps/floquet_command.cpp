@@ -202,8 +202,10 @@ int run_floquet(const CommandOptions& o) {
   const auto model = make_aero_model(c);
   const FloquetStudy s = floquet_study(c, *model);
   const std::string text = floquet_json(c, s).dump(2) + "\n";
-  if (!o.json_path.empty()) write_file_atomic(o.json_path, text);
-  if (!o.output_dir.empty()) write_file_atomic(o.output_dir + "/floquet.json", text);
+  std::vector<std::pair<std::string, std::string>> out;
+  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
+  if (!o.output_dir.empty()) out.emplace_back(o.output_dir + "/floquet.json", text);
+  write_files_atomic(out);
   if (!o.quiet) {
     const CyclicTrimResult& ct = s.cyclic;
     fmt::print("{}: cyclic hover trim of '{}': residual {:.2e} after {} Newton iterations ({} integrations)\n", c.path,

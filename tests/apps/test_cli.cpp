@@ -31,6 +31,17 @@ CliRun flapstab(const std::string& args) {
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, ss.str()};
 }
 
+// The same, run from the working directory `cwd`.
+CliRun flapstab_in(const std::string& cwd, const std::string& args) {
+  const std::string errfile = write_temp("stderr_in.txt", "");
+  const std::string cmd = "cd '" + cwd + "' && " + std::string(FLAPSTAB_BINARY) + " " + args + " > /dev/null 2> " + errfile;
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(errfile);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, ss.str()};
+}
+
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
@@ -113,6 +124,8 @@ TEST(Cli, InfeasibleTrimFailsWithoutOutput) {
   EXPECT_EQ(r.status, 3);
   EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("trim.parameter"), std::string::npos) << r.err;
+  // It names the bound that holds the trim.
+  EXPECT_NE(r.err.find("trim.parameter[0] (stroke_amplitude_deg) at its upper bound 62 deg"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -212,6 +225,23 @@ TEST(CliStatus, EmptyOutputDirectoryIsBadInput) {
   const CliRun r = flapstab("analyze " + path);
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_NE(r.err.find("'output.directory'"), std::string::npos) << r.err;
+}
+
+// [output] directory: a relative path is taken from the working directory (docs/case-file.md), not from the
+// case file's folder; -o overrides it.
+TEST(CliStatus, RelativeOutputDirectoryIsTakenFromTheWorkingDirectory) {
+  const fs::path base = fs::path(write_temp("x", "")).parent_path();
+  const fs::path cases = base / "outdir_cases", work = base / "outdir_work";
+  fs::remove_all(cases);
+  fs::remove_all(work);
+  fs::create_directories(cases);
+  fs::create_directories(work);
+  const std::string path = (cases / "rel.toml").string();
+  std::ofstream(path) << valid_case_text() + "\n[output]\ndirectory = \"rel_out\"\n";
+  const CliRun r = flapstab_in(work.string(), "analyze " + path + " -q");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(work / "rel_out" / "results.json"));
+  EXPECT_FALSE(fs::exists(cases / "rel_out"));
 }
 
 // A derivative table without a section the requested analysis can use is bad input, not an empty success.
