@@ -7,6 +7,7 @@
 #include "apps/commands.hpp"
 #include "apps/floquet_command.hpp"
 #include "apps/flight_command.hpp"
+#include "apps/validate_command.hpp"
 #include "core/errors.hpp"
 
 namespace {
@@ -96,6 +97,26 @@ int main(int argc, char** argv) {
                                              "(nine points, re-trimmed) and compare averaged, Floquet and simulated "
                                              "open-loop pitch growth with the CoM's distance below the neutral axis");
   cmap->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
+  flapstab::ValidateCommandOptions vo;
+  CLI::App* val = app.add_subcommand("validate", "published validation cases, each run and compared with the published "
+                                                 "numbers (docs/validation.md)");
+  val->require_subcommand(1);
+  CLI::App* h2d = val->add_subcommand(
+      "hovering-2d", "the 2-D hovering wing of Wang, Birch & Dickinson 2004 (Re 75, Navier-Stokes): lift and drag "
+                     "histories against the robotic-wing measurement and two published CFD results; history.csv, "
+                     "summary.json, lift.svg, drag.svg in DIR. About a minute at the default c/32 on 2 cores");
+  h2d->add_option("-o,--output", vo.output_dir, "output directory")->capture_default_str();
+  h2d->add_option("--cells-per-chord", vo.cells_per_chord, "grid: cells per chord in the fine box (16 coarse, 32 "
+                                                           "default, 48-64 converged)")
+      ->check(CLI::Range(4.0, 512.0))->capture_default_str();
+  h2d->add_option("--cycles", vo.cycles, "periods to run (4 for the comparison with cycles 2-4)")
+      ->check(CLI::Range(0.01, 100.0))->capture_default_str();
+  h2d->add_option("--span-cells", vo.span_cells, "depth of the periodic slab in cells (1: exactly 2-D; more cells "
+                                                   "show the spanwise drift recorded in docs/validation.md)")
+      ->check(CLI::Range(2, 64))->capture_default_str();
+  h2d->add_option("--reference", vo.reference_dir, "directory of the published histories (default: the shipped "
+                                                   "reference/wbd2004-hovering-2d)")->check(CLI::ExistingDirectory);
+  h2d->add_flag("-q,--quiet", vo.quiet, "print nothing on success");
   app.footer("Exit status: 0 success; 1 unexpected failure; 2 bad input (a missing or unreadable file, an invalid "
              "option or key; the message names the file and key, nothing is written); 3 numerical failure (trim or "
              "cyclic trim not converged, a CFD run diverged; the last CFD checkpoint is kept); 4 an output could not be "
@@ -116,6 +137,7 @@ int main(int argc, char** argv) {
     if (floq->parsed()) return flapstab::run_floquet(o);
     if (fly->parsed()) return flapstab::run_fly(fo);
     if (cmap->parsed()) return flapstab::run_control_map(fo);
+    if (h2d->parsed()) return flapstab::run_validate_hovering_2d(vo);
     if (stab->parsed()) {
       if (o.case_path.empty() == o.derivatives_path.empty()) {
         fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");
