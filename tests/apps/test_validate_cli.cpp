@@ -54,7 +54,7 @@ TEST(ValidateCli, ShortHovering2dRunWritesItsFiles) {
   EXPECT_NEAR(j["normalisation"]["lift_max_per_span"].get<double>(), 3.02, 0.01);
   EXPECT_NEAR(j["normalisation"]["drag_max_per_span"].get<double>(), 3.74, 0.01);
   EXPECT_EQ(j["grid"]["cells"][2].get<int>(), 1);
-  EXPECT_EQ(j["grid"]["spanwise_deviation_over_U_max"].get<double>(), 0.0);
+  EXPECT_LT(j["grid"]["spanwise_deviation_over_U_max"].get<double>(), 1e-6);
   EXPECT_FALSE(j.contains("comparison"));  // fewer than 4 cycles
   EXPECT_NE(j["verdict"].get<std::string>().find("not compared"), std::string::npos);
 }

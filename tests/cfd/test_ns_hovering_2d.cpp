@@ -129,8 +129,42 @@ int env_int(const char* name, int fallback) {
   return v ? std::atoi(v) : fallback;
 }
 
+// Any grid (H2D_CPC cells per chord, H2D_NZ span cells, H2D_CYCLES periods), printed, not asserted.
 TEST(Hovering2d, DISABLED_Probe) {
   compare(run(env_int("H2D_CPC", 16), env_int("H2D_NZ", 1)));
+}
+
+// A slab of four cells stays 2-D: the spanwise velocity and the spanwise variation of u, v after a quarter period
+// stay at the Poisson tolerance's level (4.8e-5 U_max measured). Regression test of the immersed boundary on a
+// periodic axis: the last layer's cells used to miss the image of their upper face among the forced faces, so no
+// cell of that layer was ever "fully forced" and its pressure was never extended; the layer then drifted from the
+// others and the deviation reached 0.25 U_max within this quarter period.
+TEST(Hovering2d, FlowStaysTwoDimensionalInAThickerSlab) {
+  Hovering2dCase c;
+  c.cells_per_chord = 16;
+  c.span_cells = 4;
+  c.cycles = 0.25;
+  const Hovering2dResult r = run_hovering_2d(c);
+  std::printf("  c/16, 4 span cells, a quarter period: spanwise deviation %.2e U_max\n", r.spanwise_deviation);
+  EXPECT_LT(r.spanwise_deviation, 1e-3);
+}
+
+// CI: c/16 in the fine box (the published CFD used c/40), four cycles, about 11 s on one thread.
+// Tolerances from the grid study (docs/validation.md): the mean C_L of cycles 2-4 moves by CI_GRID_SPREAD
+// between c/16 and the finest grid, so the coarse grid must meet the converged target widened by that:
+// within 5 % + 3 % of the CFD pair; the histories' shape: correlation with Li et al. above 0.95 for lift
+// and drag (0.965 and 0.976 on c/16); the flow exactly 2-D.
+TEST(Hovering2d, CoarseGridAgainstThePublishedHistories) {
+  const Hovering2dResult r = run(16);
+  const Comparison c = compare(r);
+  EXPECT_LT(r.spanwise_deviation, 1e-6);  // one cell: no spanwise gradient at all (8e-8 measured)
+  const double lo = std::min(c.l_el.reference_mean, c.l_li.reference_mean), hi = std::max(c.l_el.reference_mean, c.l_li.reference_mean);
+  EXPECT_GE(c.cl, (1 - 0.08) * lo);
+  EXPECT_LE(c.cl, (1 + 0.08) * hi);
+  EXPECT_NEAR(c.cl / c.l_exp.reference_mean, 1.0, 0.15 + 0.03);
+  EXPECT_GT(c.l_li.correlation, 0.95);
+  EXPECT_GT(c.d_li.correlation, 0.95);
+  EXPECT_NEAR(c.cd / c.d_li.reference_mean, 1.0, 0.10);
 }
 
 }  // namespace
