@@ -157,9 +157,9 @@ int run_validate_hovering_2d(const ValidateCommandOptions& o) {
     p.xlabel = "t / T";
     p.ylabel = which == 0 ? "C_L = lift / L_max,qs" : "C_D = drag / D_max,qs";
     p.zero_axes = true;
-    p.series.push_back(Series{"flapstab", tau, which == 0 ? cl : cd, "lines lw 2"});
+    p.series.push_back(Series{"flapstab", tau, which == 0 ? cl : cd, "lines"});
     const auto& refs = which == 0 ? lift : drag;
-    const char* styles[] = {"points pt 6 ps 0.6", "lines dt 2", "lines"};
+    const char* styles[] = {"points pt 6 ps 0.6", "lines dt 2", "lines dt 3"};
     for (std::size_t i = 0; i < refs.size(); ++i) p.series.push_back(Series{refs[i].label, refs[i].phase, refs[i].value, styles[i]});
     if (const auto svg = render_svg(p, why))
       files.emplace_back(o.output_dir + (which == 0 ? "/lift.svg" : "/drag.svg"), *svg);

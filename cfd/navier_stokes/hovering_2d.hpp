@@ -12,9 +12,10 @@
 //
 // A 2-D case in the 3-D solver: the plane of motion is x (horizontal) - y (vertical, up), z is a thin periodic
 // slab of `span_cells` cells; the wing is the ellipse extruded along z as a closed surface reaching past both
-// ends of the slab (its caps lie outside the domain). The default slab is ONE cell deep, the exact 2-D reduction
-// (every z-difference vanishes); thicker slabs stay 2-D to the Poisson tolerance (Hovering2dResult::
-// spanwise_deviation reports it) and cost proportionally more. The box [-15, 15]^2 c
+// ends of the slab (its caps lie outside the domain). The default slab is two cells deep: the flow stays 2-D to
+// the Poisson tolerance (Hovering2dResult::spanwise_deviation reports it). A one-cell slab, the exact 2-D
+// reduction, diverges on the c/32 grid a few hundred steps in (an open defect of the immersed boundary's
+// pressure extension there, docs/validation.md) and is refused. The box [-15, 15]^2 c
 // has walls at rest; a uniform fine box (the region the wing sweeps, and the wake below it) with geometric
 // stretching outside, as in PetIBM's example of this case (barbagroup/petibm-examples, flapping2dRe75).
 //
@@ -45,7 +46,7 @@ struct Hovering2dCase {
   double stretch_ratio = 1.05;     // largest ratio of neighbouring cell widths outside the fine box
   double half_width = 15;          // the box is [-half_width, half_width]^2, chords
   std::array<double, 2> box_x{-2, 2}, box_y{-3, 1};  // the uniform fine box, chords
-  int span_cells = 1;              // depth of the periodic slab, cells of width h (1: the exact 2-D reduction)
+  int span_cells = 2;              // depth of the periodic slab, cells of width h (at least 2)
   int outline_points = 256;        // vertices of the ellipse's outline (clustered at the edges)
   double cfl = 1.2;                // adaptive time step's CFL number (RK3, central fluxes: stable to sqrt 3)
 

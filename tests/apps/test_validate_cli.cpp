@@ -53,9 +53,13 @@ TEST(ValidateCli, ShortHovering2dRunWritesItsFiles) {
   const auto j = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_NEAR(j["normalisation"]["lift_max_per_span"].get<double>(), 3.02, 0.01);
   EXPECT_NEAR(j["normalisation"]["drag_max_per_span"].get<double>(), 3.74, 0.01);
-  EXPECT_EQ(j["grid"]["cells"][2].get<int>(), 1);
-  EXPECT_LT(j["grid"]["spanwise_deviation_over_U_max"].get<double>(), 1e-6);
+  EXPECT_EQ(j["grid"]["cells"][2].get<int>(), 2);
+  EXPECT_LT(j["grid"]["spanwise_deviation_over_U_max"].get<double>(), 1e-3);
   EXPECT_FALSE(j.contains("comparison"));  // fewer than 4 cycles
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {  // figures need gnuplot (absent: reported, not fatal)
+    EXPECT_TRUE(fs::exists(d / "lift.svg")) << r.err;
+    EXPECT_TRUE(fs::exists(d / "drag.svg")) << r.err;
+  }
   EXPECT_NE(j["verdict"].get<std::string>().find("not compared"), std::string::npos);
 }
 
