@@ -258,7 +258,7 @@ int run_analyze(const CommandOptions& o) {
                       "of the CFD A(t) is in the Navier-Stokes section, control derivatives are not computed from CFD");
   } else {
     try {
-      floquet = floquet_study(c, *model);
+      floquet = floquet_study(c, *model, 0, &t);
     } catch (const std::exception& e) {
       notices.push_back(std::string("Floquet analysis skipped: ") + e.what());
     }

@@ -126,11 +126,11 @@ void print_subsystem(const char* title, const FloquetSubsystem& f) {
 
 }  // namespace
 
-FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases) {
+FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, const TrimResult* averaged) {
   const auto t0 = std::chrono::steady_clock::now();
   // The averaged trim, cyclic trim, derivatives at the cyclic trim's kinematics (so both analyses see the same
   // wingbeat), orbit and phase-resolved derivatives: flight/hover_model.hpp computes them once for every user.
-  HoverModel h = hover_model(c, model, {}, phases);
+  HoverModel h = hover_model(c, model, {}, phases, {}, averaged);
   FloquetStudy s;
   s.averaged_trim = std::move(h.averaged_trim);
   s.cyclic = std::move(h.cyclic);

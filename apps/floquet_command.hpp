@@ -37,7 +37,8 @@ struct FloquetStudy {
 // The whole computation for a case (phases = number of phase samples of A(t); 0: the case's
 // [aero.quasi_steady] samples_per_cycle). Throws InputError (asymmetric case, model without
 // instantaneous loads) or SolveError (trim or cyclic trim not converged).
-FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases = 0);
+// `averaged`: the case's averaged trim when the caller has solved it already (analyze), else solved here.
+FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases = 0, const TrimResult* averaged = nullptr);
 
 nlohmann::json floquet_json(const Case& c, const FloquetStudy& s);
 

@@ -11,11 +11,11 @@
 namespace flapstab {
 
 HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
-                       int phases, const CyclicTrimOptions& cyclic) {
+                       int phases, const CyclicTrimOptions& cyclic, const TrimResult* averaged) {
   const auto t0 = std::chrono::steady_clock::now();
   check_cyclic_trim_case(c, model);
   HoverModel h;
-  h.averaged_trim = trim_hover(c, model);
+  h.averaged_trim = averaged ? *averaged : trim_hover(c, model);
   if (!h.averaged_trim.converged)
     throw SolveError(fmt::format("{}: the averaged trim did not converge ({})", c.path, h.averaged_trim.message));
   h.cyclic = cyclic_trim(c, model, h.averaged_trim, cyclic);

@@ -23,8 +23,9 @@ struct HoverModel {
 };
 
 // For a symmetric case with an instantaneous model. Throws InputError / SolveError as floquet analysis does.
+// `averaged`: the case's averaged trim when the caller has it already (analyze), else it is solved here.
 HoverModel hover_model(const Case& c, const AeroModel& model, const std::vector<TrimParameterSpec>& actuators,
-                       int phases = 0, const CyclicTrimOptions& cyclic = {});
+                       int phases = 0, const CyclicTrimOptions& cyclic = {}, const TrimResult* averaged = nullptr);
 
 // The most unstable Floquet mode of the [u w q theta] ("longitudinal") or [v p r phi] ("lateral") subsystem as a
 // BodyStateVector perturbation (real part of the eigenvector), scaled to non-dimensional max-norm `amplitude`.
