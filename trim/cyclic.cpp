@@ -2,7 +2,6 @@
 #include "trim/cyclic.hpp"
 
 #include <cmath>
-#include <memory>
 #include <fmt/format.h>
 
 #include "cfd/derivatives.hpp"
@@ -19,15 +18,13 @@ constexpr int n_ode = 13;  // the 12 body states and int_0^t theta dt
 constexpr int free_states[4] = {3, 5, 7, 10};              // u, w, q, theta
 constexpr int residual_states[7] = {3, 5, 7, 10, 0, 2, 12};  // ..., x, z, int theta
 
-void free_derivative(const InstantaneousAero& aero, double t, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
-  const BodyStateVector d = free_flight_derivative(aero, t, x.head<12>());
-  dx.resize(n_ode);
-  dx.head<12>() = d;
-  dx(12) = x(10);
-}
-
 OdeRhs free_rhs(const InstantaneousAero& aero) {
-  return [&aero](double t, const Eigen::VectorXd& x, Eigen::VectorXd& dx) { free_derivative(aero, t, x, dx); };
+  return [&aero](double t, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
+    const BodyStateVector d = free_flight_derivative(aero, t, x.head<12>());
+    dx.resize(n_ode);
+    dx.head<12>() = d;
+    dx(12) = x(10);
+  };
 }
 
 // The exact d(free_rhs)/dx for the quasi-steady model (cfd/quasi_steady's analytic wrench derivatives through
@@ -91,48 +88,21 @@ class Shooting {
     return x;
   }
 
-  // Scaled residual; with jacobian != nullptr also d r / d z: its state columns from the sensitivities to the
-  // initial state, its parameter columns from those to the parameters, d f / d z_j central differences of the free
-  // system's right-hand side at the same (t, x) between the kinematics at z +- h e_j (step h = 1e-5 of the bounds'
-  // range), the period's own change (frequency) added as f(T) dT / dz_j.
+  // Scaled residual; with jacobian != nullptr also d r / d z.
   Eigen::VectorXd residual(const Eigen::VectorXd& z, Eigen::MatrixXd* jacobian) {
     const Kinematics kin = par_.apply(parameters(z));
     const InstantaneousAero aero(model_, case_.insect, kin);
     const double T = kin.period();
+    rs_[6] = 1 / T;
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(n_ode);
     x0.head<12>() = initial_state(z);
     std::vector<int> sens;
+    if (jacobian) sens.assign(std::begin(free_states), std::end(free_states));
     const FreeJacobian fj(aero, model_);
     OdeOptions opts = ode_options(ref_, T, rtol_);
     opts.jacobian = fj.function(aero);
-    const Eigen::Index m = unknowns() - 4;  // parameters
-    constexpr double h = 1e-5;
-    std::vector<std::unique_ptr<const InstantaneousAero>> plus, minus;
-    Eigen::VectorXd dT = Eigen::VectorXd::Zero(m);
-    if (jacobian) {
-      sens.assign(std::begin(free_states), std::end(free_states));
-      for (Eigen::Index j = 0; j < m; ++j) {
-        Eigen::VectorXd zp = z, zm = z;
-        zp(4 + j) += h;
-        zm(4 + j) -= h;
-        plus.push_back(std::make_unique<const InstantaneousAero>(model_, case_.insect, par_.apply(parameters(zp))));
-        minus.push_back(std::make_unique<const InstantaneousAero>(model_, case_.insect, par_.apply(parameters(zm))));
-        dT(j) = (plus.back()->kinematics().period() - minus.back()->kinematics().period()) / (2 * h);
-      }
-      opts.parameters = int(m);
-      opts.parameter_derivative = [&](double t, const Eigen::VectorXd& x, Eigen::MatrixXd& P) {
-        P.resize(n_ode, m);
-        Eigen::VectorXd fp, fm;
-        for (Eigen::Index j = 0; j < m; ++j) {
-          free_derivative(*plus[std::size_t(j)], t, x, fp);
-          free_derivative(*minus[std::size_t(j)], t, x, fm);
-          P.col(j) = (fp - fm) / (2 * h);
-        }
-      };
-    }
     const OdeSolution s = integrate_ode(free_rhs(aero), x0, 0, T, sens, {}, opts);
     ++integrations_;
-    rs_[6] = 1 / T;
     Eigen::VectorXd r(7);
     for (int i = 0; i < 7; ++i) {
       const int k = residual_states[i];
@@ -145,14 +115,15 @@ class Shooting {
         for (int j = 0; j < 4; ++j)
           J(i, j) = rs_[std::size_t(i)] * (s.sensitivity(residual_states[i], j) - (i == j ? 1.0 : 0.0)) /
                     zs_[std::size_t(j)];
-      // d x(T) / d z_j = s_j(T) + f(T, x(T)) dT / dz_j; the mean angle x_12(T) / T also through 1 / T.
-      Eigen::VectorXd fT = Eigen::VectorXd::Zero(n_ode);
-      if (dT.cwiseAbs().maxCoeff() > 0) free_derivative(aero, T, s.x, fT);
-      for (Eigen::Index j = 0; j < m; ++j) {
-        const Eigen::VectorXd dx = s.sensitivity.col(4 + j) + fT * dT(j);
-        for (int i = 0; i < 7; ++i) J(i, 4 + j) = rs_[std::size_t(i)] * dx(residual_states[i]);
-        J(6, 4 + j) -= rs_[6] * s.x(12) / T * dT(j);
+      // Parameter columns: central differences of the period map, step 1e-5 of the bounds' range.
+      for (Eigen::Index j = 4; j < unknowns(); ++j) {
+        const double h = 1e-5;
+        Eigen::VectorXd zp = z, zm = z;
+        zp(j) += h;
+        zm(j) -= h;
+        J.col(j) = (residual(zp, nullptr) - residual(zm, nullptr)) / (2 * h);
       }
+      rs_[6] = 1 / T;
     }
     return r;
   }

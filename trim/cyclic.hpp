@@ -8,10 +8,9 @@
 //   u(T) = u0, w(T) = w0, q(T) = q0, theta(T) = theta0   (periodicity)
 //   x(T) = x(0), z(T) = z(0)                              (no drift over a wingbeat)
 //   (1/T) int_0^T theta dt = 0                            (stability axes = the mean attitude)
-// square for three parameters. Newton (least squares / minimum norm otherwise) with the Jacobian from
-// CVODES forward sensitivities of the same integration, to the initial state and to the parameters (their
-// d f / d p central differences of the right-hand side between neighbouring kinematics), started from the
-// averaged trim. Residuals are scaled: velocities / U, rates c / U,
+// square for three parameters. Newton (least squares / minimum norm otherwise) with the state columns
+// of the Jacobian from CVODES forward sensitivities and the parameter columns from central differences
+// of the period map, started from the averaged trim. Residuals are scaled: velocities / U, rates c / U,
 // angles in rad, positions / c. Wu & Sun 2012 (J R Soc Interface 9:2033) find this cyclic equilibrium
 // for the hawkmoth the same way; docs/theory/floquet.md.
 #pragma once

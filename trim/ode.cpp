@@ -1,4 +1,4 @@
-// CVODES wrapper: Adams integration of x' = f(t, x; p) with forward sensitivities to initial states and parameters.
+// CVODES wrapper: Adams integration of x' = f(t, x) with forward sensitivities to initial states.
 #include "trim/ode.hpp"
 
 #include <cmath>
@@ -16,38 +16,34 @@ namespace flapstab {
 
 namespace {
 
-Eigen::Map<Eigen::VectorXd> view(N_Vector v, Eigen::Index n) { return {N_VGetArrayPointer(v), n}; }
-
-// A derivative of f (df/dx or df/dp) and where it was last formed: the staggered corrector evaluates the
-// sensitivity right-hand sides several times at the same (t, y).
-struct PointCache {
-  bool valid = false;
-  double t = 0;
-  Eigen::VectorXd x;
-  Eigen::MatrixXd value;
-  template <class F>
-  const Eigen::MatrixXd& at(const F& f, double t_now, N_Vector y, Eigen::Index n) {
-    const Eigen::Map<Eigen::VectorXd> y_now = view(y, n);
-    if (!valid || t_now != t || y_now != x) {
-      x = y_now;
-      t = t_now;
-      f(t, x, value);
-      valid = true;
-    }
-    return value;
-  }
-};
-
 struct UserData {
   const OdeRhs* f;
   Eigen::Index n;
   Eigen::VectorXd scale;
   Eigen::VectorXd x, dx, xp, xm, fp, fm;  // work space
   const OdeJacobian* jac = nullptr;
-  const OdeParameterDerivative* dfdp = nullptr;
-  int parameters = 0;  // the last `parameters` sensitivities are to parameters
-  PointCache J, P;
+  // The last Jacobian and where it was formed: the staggered corrector evaluates the sensitivity right-hand
+  // sides several times at the same (t, y).
+  double jac_t = 0;
+  Eigen::VectorXd jac_x;
+  Eigen::MatrixXd J;
+  long jacobian_evaluations = 0;
 };
+
+Eigen::Map<Eigen::VectorXd> view(N_Vector v, Eigen::Index n);
+
+const Eigen::MatrixXd& jacobian_at(UserData* d, double t, N_Vector y) {
+  const Eigen::Map<Eigen::VectorXd> x = view(y, d->n);
+  if (d->jacobian_evaluations == 0 || t != d->jac_t || x != d->jac_x) {
+    d->jac_x = x;
+    d->jac_t = t;
+    (*d->jac)(t, d->jac_x, d->J);
+    ++d->jacobian_evaluations;
+  }
+  return d->J;
+}
+
+Eigen::Map<Eigen::VectorXd> view(N_Vector v, Eigen::Index n) { return {N_VGetArrayPointer(v), n}; }
 
 int rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
   auto* d = static_cast<UserData*>(user);
@@ -61,35 +57,31 @@ int rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
   return 0;
 }
 
-// s_j' = (df/dx) s_j, with df/dx given or by central directional differences along s_j, the perturbation at
-// most 5e-6 of each state's scale (error ~ step^2 ~ 1e-11 relative); plus (df/dp)_k for a parameter's s_k.
+// s_j' = (df/dx) s_j by central directional differences along s_j, the perturbation at most 5e-6 of
+// each state's scale (error ~ step^2 ~ 1e-11 relative).
 int sens_rhs(int ns, sunrealtype t, N_Vector y, N_Vector, N_Vector* yS, N_Vector* ySdot, void* user, N_Vector,
              N_Vector) {
   auto* d = static_cast<UserData*>(user);
   try {
     if (d->jac) {
-      const Eigen::MatrixXd& J = d->J.at(*d->jac, t, y, d->n);
+      const Eigen::MatrixXd& J = jacobian_at(d, t, y);
       for (int j = 0; j < ns; ++j) view(ySdot[j], d->n).noalias() = J * view(yS[j], d->n);
-    } else {
-      d->x = view(y, d->n);
-      for (int j = 0; j < ns; ++j) {
-        const Eigen::Map<Eigen::VectorXd> s = view(yS[j], d->n);
-        const double size = (s.array().abs() / d->scale.array()).maxCoeff();
-        if (size == 0) {
-          view(ySdot[j], d->n).setZero();
-          continue;
-        }
-        const double h = 5e-6 / size;
-        d->xp = d->x + h * s;
-        d->xm = d->x - h * s;
-        (*d->f)(t, d->xp, d->fp);
-        (*d->f)(t, d->xm, d->fm);
-        view(ySdot[j], d->n) = (d->fp - d->fm) / (2 * h);
-      }
+      return 0;
     }
-    if (d->parameters > 0) {
-      const Eigen::MatrixXd& P = d->P.at(*d->dfdp, t, y, d->n);
-      for (int k = 0; k < d->parameters; ++k) view(ySdot[ns - d->parameters + k], d->n) += P.col(k);
+    d->x = view(y, d->n);
+    for (int j = 0; j < ns; ++j) {
+      const Eigen::Map<Eigen::VectorXd> s = view(yS[j], d->n);
+      const double size = (s.array().abs() / d->scale.array()).maxCoeff();
+      if (size == 0) {
+        view(ySdot[j], d->n).setZero();
+        continue;
+      }
+      const double h = 5e-6 / size;
+      d->xp = d->x + h * s;
+      d->xm = d->x - h * s;
+      (*d->f)(t, d->xp, d->fp);
+      (*d->f)(t, d->xm, d->fm);
+      view(ySdot[j], d->n) = (d->fp - d->fm) / (2 * h);
     }
   } catch (...) {
     return -1;
@@ -101,7 +93,7 @@ int sens_rhs(int ns, sunrealtype t, N_Vector y, N_Vector, N_Vector* yS, N_Vector
 int dense_jacobian(sunrealtype t, N_Vector y, N_Vector, SUNMatrix A, void* user, N_Vector, N_Vector, N_Vector) {
   auto* d = static_cast<UserData*>(user);
   try {
-    const Eigen::MatrixXd& J = d->J.at(*d->jac, t, y, d->n);
+    const Eigen::MatrixXd& J = jacobian_at(d, t, y);
     for (Eigen::Index j = 0; j < d->n; ++j)
       for (Eigen::Index i = 0; i < d->n; ++i) SM_ELEMENT_D(A, i, j) = J(i, j);
   } catch (...) {
@@ -148,16 +140,8 @@ OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0,
                           const std::vector<int>& sens, const std::vector<double>& sample_times,
                           const OdeOptions& o) {
   const Eigen::Index n = x0.size();
-  UserData data;
-  data.f = &f;
-  data.n = n;
-  data.scale = o.scale.size() == n ? o.scale : Eigen::VectorXd::Ones(n);
+  UserData data{&f, n, o.scale.size() == n ? o.scale : Eigen::VectorXd::Ones(n), {}, {}, {}, {}, {}, {}, nullptr, 0, {}, {}, 0};
   if (o.jacobian) data.jac = &o.jacobian;
-  if (o.parameters > 0) {
-    if (!o.parameter_derivative) throw SolveError("integrate_ode: parameter sensitivities need df/dp");
-    data.dfdp = &o.parameter_derivative;
-    data.parameters = o.parameters;
-  }
   data.dx.resize(n);
   data.fp.resize(n);
   data.fm.resize(n);
@@ -178,14 +162,13 @@ OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0,
   cv.LS = SUNLinSol_Dense(cv.y, cv.A, cv.ctx);
   check(CVodeSetLinearSolver(cv.mem, cv.LS, cv.A), "linear solver");
   if (data.jac) check(CVodeSetJacFn(cv.mem, dense_jacobian), "Jacobian");
-  const int ns = int(sens.size()) + data.parameters;
-  if (ns > 0) {
-    cv.ns = ns;
+  if (!sens.empty()) {
+    cv.ns = int(sens.size());
     cv.yS = N_VCloneVectorArray(cv.ns, cv.y);
-    for (int j = 0; j < cv.ns; ++j) view(cv.yS[j], n).setZero();
-    for (std::size_t j = 0; j < sens.size(); ++j) {
-      if (sens[j] < 0 || sens[j] >= n) throw SolveError("integrate_ode: bad sensitivity index");
-      view(cv.yS[j], n)(sens[j]) = 1;
+    for (int j = 0; j < cv.ns; ++j) {
+      if (sens[std::size_t(j)] < 0 || sens[std::size_t(j)] >= n) throw SolveError("integrate_ode: bad sensitivity index");
+      view(cv.yS[j], n).setZero();
+      view(cv.yS[j], n)(sens[std::size_t(j)]) = 1;
     }
     check(CVodeSensInit(cv.mem, cv.ns, CV_STAGGERED, sens_rhs, cv.yS), "sensitivity init");
     check(CVodeSensEEtolerances(cv.mem), "sensitivity tolerances");
@@ -200,7 +183,7 @@ OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0,
   }
   if (t < t1) check(CVode(cv.mem, t1, cv.y, &t, CV_NORMAL), "integration");
   out.x = view(cv.y, n);
-  if (ns > 0) {
+  if (!sens.empty()) {
     check(CVodeGetSens(cv.mem, &t, cv.yS), "sensitivity output");
     out.sensitivity.resize(n, cv.ns);
     for (int j = 0; j < cv.ns; ++j) out.sensitivity.col(j) = view(cv.yS[j], n);

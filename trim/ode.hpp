@@ -1,5 +1,4 @@
-// Initial-value problems with CVODES: x' = f(t, x; p) with forward sensitivities to chosen initial states and to
-// parameters of f.
+// Initial-value problems with CVODES: x' = f(t, x) with forward sensitivities to chosen initial states.
 #pragma once
 #include <functional>
 #include <vector>
@@ -10,8 +9,6 @@ namespace flapstab {
 using OdeRhs = std::function<void(double t, const Eigen::VectorXd& x, Eigen::VectorXd& dxdt)>;
 // df/dx (n x n) at (t, x).
 using OdeJacobian = std::function<void(double t, const Eigen::VectorXd& x, Eigen::MatrixXd& dfdx)>;
-// df/dp (n x m) at (t, x) for m parameters p of f.
-using OdeParameterDerivative = std::function<void(double t, const Eigen::VectorXd& x, Eigen::MatrixXd& dfdp)>;
 
 struct OdeOptions {
   double rtol = 1e-12;
@@ -20,17 +17,11 @@ struct OdeOptions {
   // Optional exact df/dx: with it the sensitivity right-hand sides are (df/dx) s_j, one Jacobian per (t, x) shared
   // by all directions and corrector iterations, and the Newton iteration's matrix uses it too. Empty: differences.
   OdeJacobian jacobian;
-  // Optional df/dp of `parameters` parameters: their sensitivities d x / d p_k (s_k(t0) = 0, x0 independent of p)
-  // are solved alongside those to the initial states, s_k' = (df/dx) s_k + (df/dp)_k, with df/dp formed once per
-  // (t, x) like the Jacobian.
-  int parameters = 0;
-  OdeParameterDerivative parameter_derivative;
 };
 
 struct OdeSolution {
   Eigen::VectorXd x;                     // x(t1)
-  // d x(t1) / d x(t0)_j for j in sensitivity_states, then d x(t1) / d p_k for the options' parameters (n x (k + m))
-  Eigen::MatrixXd sensitivity;
+  Eigen::MatrixXd sensitivity;           // d x(t1) / d x(t0)_j for j in sensitivity_states (n x k)
   std::vector<Eigen::VectorXd> samples;  // x at the requested sample times
   long steps = 0, rhs_evaluations = 0;
 };
@@ -38,8 +29,7 @@ struct OdeSolution {
 // Integrates from t0 to t1 with CVODES (Adams-Moulton, Newton iteration, dense direct solver). With
 // sensitivity_states non-empty, the forward sensitivity equations s_j' = (df/dx) s_j, s_j(t0) = e_j
 // are solved alongside (staggered corrector, error-controlled), with (df/dx) s_j from options.jacobian
-// when given, else from central directional differences of f (step 5e-6 of the state scales); with
-// options.parameters > 0 the parameter sensitivities too. sample_times: ascending, in [t0, t1].
+// when given, else from central directional differences of f (step 5e-6 of the state scales). sample_times: ascending, in [t0, t1].
 // Throws SolveError when CVODES fails.
 OdeSolution integrate_ode(const OdeRhs& f, const Eigen::VectorXd& x0, double t0, double t1,
                           const std::vector<int>& sensitivity_states = {},

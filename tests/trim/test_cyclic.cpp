@@ -32,33 +32,6 @@ TEST(OdeWrapper, LinearSystemSensitivitiesAreTheMatrixExponential) {
   EXPECT_LT((s.samples[0] - x0).norm(), 1e-15);
 }
 
-// Parameter sensitivities: x' = A x + B p with x(0) independent of p has d x(T) / d p = A^-1 (exp(A T) - I) B
-// (variation of constants), solved beside the initial-state sensitivities; the state columns are unchanged
-// (exp(A T)). Tolerance 1e-8 relative as above.
-TEST(OdeWrapper, ParameterSensitivitiesOfALinearSystem) {
-  Eigen::Matrix3d A;
-  A << -0.5, 3.0, 0.0, -3.0, -0.1, 0.2, 0.1, 0.0, -1.0;
-  Eigen::Matrix<double, 3, 2> B;
-  B << 1.0, 0.0, -0.5, 2.0, 0.25, -1.0;
-  const Eigen::Vector2d p(0.3, -0.7);
-  const OdeRhs f = [&](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) { dx = A * x + B * p; };
-  OdeOptions o;
-  o.parameters = 2;
-  o.parameter_derivative = [&](double, const Eigen::VectorXd&, Eigen::MatrixXd& P) { P = B; };
-  const Eigen::Vector3d x0(1, -2, 0.5);
-  const OdeSolution s = integrate_ode(f, x0, 0, 2.0, {0, 2}, {}, o);
-  const Eigen::Matrix3d E = (A * 2.0).exp();
-  const Eigen::Matrix<double, 3, 2> S = A.inverse() * (E - Eigen::Matrix3d::Identity()) * B;
-  ASSERT_EQ(s.sensitivity.cols(), 4);
-  EXPECT_LT((s.x - (E * x0 + S * p)).norm(), 1e-9 * x0.norm());
-  EXPECT_LT((s.sensitivity.col(0) - E.col(0)).norm(), 1e-8 * E.norm());
-  EXPECT_LT((s.sensitivity.col(1) - E.col(2)).norm(), 1e-8 * E.norm());
-  EXPECT_LT((s.sensitivity.rightCols(2) - S).norm(), 1e-8 * S.norm());
-  OdeOptions missing;
-  missing.parameters = 1;
-  EXPECT_THROW(integrate_ode(f, x0, 0, 2.0, {}, {}, missing), SolveError);
-}
-
 // Nonlinear pendulum x'' = -sin x: the sensitivity of x(t) to x(0) against central differences of the
 // flow (step 1e-6, rtol 1e-13: agreement to 1e-6).
 TEST(OdeWrapper, NonlinearSensitivityMatchesFlowDifferences) {
