@@ -730,6 +730,39 @@ std::vector<double> ImmersedBoundary::solid_mask(double t) const {
   return mask;
 }
 
+std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& states) const {
+  if (states.size() != impl_->parts.size())
+    throw std::invalid_argument("immersed boundary: cell_owners got " + std::to_string(states.size()) +
+                                " part states for " + std::to_string(impl_->parts.size()) + " parts");
+  const Shape sh = impl_->grid.shape();
+  const std::size_t cells = std::size_t(sh.nx) * sh.ny * sh.nz;
+  std::vector<int> owner(cells, -1);
+  std::vector<double> lowest(cells, 0.0);
+  const Grid& g = impl_->grid;
+  for (std::size_t n = 0; n < impl_->parts.size(); ++n) {
+    const auto& p = impl_->parts[n];
+    const RigidTransform& pose = states[n].pose;
+    BoundingBox b = transformed_box(p.box, pose, 0);
+    if (p.mesh.membrane) b = transformed_box(p.box, pose, (impl_->opt.membrane_half_thickness + 1) * impl_->max_width(b));
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) index_range(g.axis[a].xc, 1, g.axis[a].n, b.lo[a], b.hi[a], lo[a], hi[a]);
+#pragma omp parallel for schedule(static)
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i) {
+          const Vec3 x(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]);
+          const double h = std::max({g.axis[0].dc[std::size_t(i)], g.axis[1].dc[std::size_t(j)], g.axis[2].dc[std::size_t(k)]});
+          const double v = impl_->phi(p, pose, x, h);
+          const std::size_t c = (std::size_t(k - 1) * sh.ny + std::size_t(j - 1)) * sh.nx + std::size_t(i - 1);
+          if (v < 0 && (owner[c] < 0 || v < lowest[c])) {
+            owner[c] = int(n);
+            lowest[c] = v;
+          }
+        }
+  }
+  return owner;
+}
+
 void ImmersedBoundary::attach(Solver& solver) {
   if (!(solver.grid().shape() == impl_->grid.shape()))
     throw std::invalid_argument("immersed boundary: the solver's grid is not the one the boundary was built on");

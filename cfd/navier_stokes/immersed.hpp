@@ -108,6 +108,10 @@ class ImmersedBoundary final : public StageHooks {
   // 1 in the cells whose centre lies inside a part at time t (closed parts: inside the surface; membranes: within
   // the half thickness the forcing uses), else 0; interior cells, x fastest (the field files' order).
   std::vector<double> solid_mask(double t) const;
+  // Which part holds each interior cell (x fastest) for the given part states (one per part): -1 where the cell's
+  // centre lies in the fluid, else the index of the part whose level set is lowest there (solid as in solid_mask).
+  // The force partitioning's staircase fluid region.
+  std::vector<int> cell_owners(const std::vector<PartState>& states) const;
 
   // Places the parts at the solver's time, marks cell flags (solid / ghost = interface band / fluid) and
   // attaches itself to the solver's stages. Call after solver.initialise() (or restore()).

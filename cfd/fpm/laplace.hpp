@@ -1,0 +1,77 @@
+// Laplace problems in the fluid part of a CFD grid with Neumann conditions on immersed bodies: the influence
+// potentials of force partitioning (docs/theory/force-partitioning.md).
+//
+// Discretisation: a cell belongs to the fluid or to one solid part (the immersed boundary's level sets at its
+// centre, ImmersedBoundary::cell_owners), so each body is a staircase of cell faces. In the volume-integrated form
+//   (A phi)_c = sum over the open faces f of c of a_f (phi_c - phi_nb),   a_f = A_f / df_f
+// (A_f the face area, df_f the centre spacing across it), a face is open when both its cells are fluid; faces to a
+// solid cell, and the domain's faces, carry no conductance. A Neumann datum g = d phi / dn (n out of the body, into
+// the fluid) on a staircase face enters the right-hand side as -A_f g (the flux out of the fluid cell is -g A_f).
+// The discrete Green identity sum_c phi_c (A phi)_c = sum_open a_f (phi_c - phi_nb)^2 holds exactly, so the
+// partition's discrete integrals inherit the continuous identities (docs/theory).
+//
+// Solver: conjugate gradients preconditioned by a geometric multigrid V-cycle (flexible: the coarsest level is
+// relaxed to a tolerance). Coarse conductances sum the fine faces' open area over the coarse centre spacing,
+// a_C = sum_f a_f df_f / df_C (the coarse-grid discretisation where everything is open, so walls coarsen as
+// their open fraction); piecewise-constant prolongation, summed restriction, red-black Gauss-Seidel smoothing.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <memory>
+#include <vector>
+#include "cfd/navier_stokes/field.hpp"
+#include "cfd/navier_stokes/grid.hpp"
+
+namespace flapstab::fpm {
+
+using ns::Field;
+using ns::Grid;
+using ns::Shape;
+
+// Which part holds each cell: owner[Shape index] = -1 fluid, p >= 0 the part; ghost entries are -2 (outside the
+// domain) or, on a periodic axis, the image's owner.
+struct CellOwners {
+  Shape shape;
+  std::vector<int> owner;
+  int parts = 0;
+  // From the immersed boundary's interior array (x fastest, -1 fluid, else the part).
+  CellOwners(const Grid& g, const std::vector<int>& interior, int parts);
+  bool fluid(std::ptrdiff_t n) const { return owner[std::size_t(n)] == -1; }
+  std::size_t fluid_cells() const;
+};
+
+struct LaplaceStats {
+  int iterations = 0;
+  double initial_residual = 0, residual = 0;  // max-norm of b - A x over active cells (volume-integrated units)
+  bool converged = false;
+};
+
+class NeumannLaplacian {
+ public:
+  // Throws std::invalid_argument for a periodic axis with an odd cell count (the red-black colouring needs even).
+  NeumannLaplacian(const Grid& g, const CellOwners& owners);
+  ~NeumannLaplacian();
+  NeumannLaplacian(NeumannLaplacian&&) noexcept;
+  NeumannLaplacian& operator=(NeumannLaplacian&&) noexcept;
+
+  // Solves A x = b from x's value on entry (a warm start: the previous sample's potential) until
+  // max|b - A x| <= rtol max|b|. b must be compatible (sum over each connected fluid region zero); its mean over
+  // the active cells is removed first. Inactive cells (solid, or fluid without an open face) get x = 0.
+  LaplaceStats solve(Field& x, const Field& b, double rtol = 1e-8, int max_iterations = 500) const;
+  // (A x) on the cells; x's periodic ghosts are refreshed first.
+  void apply(Field& x, Field& Ax) const;
+  // Conductance a_f of face I (the lower face of cell I) along axis d; 0 where closed.
+  double conductance(int d, int i, int j, int k) const;
+  bool active(int i, int j, int k) const;
+  int levels() const;
+  std::size_t bytes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Periodic images into the ghost layer of a cell field (axes that are not periodic keep their ghosts).
+void fill_periodic_ghosts(const Grid& g, Field& x);
+
+}  // namespace flapstab::fpm

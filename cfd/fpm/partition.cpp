@@ -1,0 +1,345 @@
+// Force partitioning of the loads on immersed parts (partition.hpp, docs/theory/force-partitioning.md).
+#include "cfd/fpm/partition.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include "cfd/navier_stokes/diagnostics.hpp"
+
+namespace flapstab::fpm {
+
+namespace {
+
+// A staircase face between a fluid cell and a cell of a part: n points from the part into the fluid (+-e_d).
+struct Wall {
+  std::ptrdiff_t cell;  // the fluid cell (Shape index)
+  int part;
+  int d;
+  int sign;             // n = sign e_d
+  Vec3 x;               // face centre (m)
+  double area;          // m^2
+  Vec3 n() const {
+    Vec3 v = Vec3::Zero();
+    v[d] = sign;
+    return v;
+  }
+};
+
+// A face of the domain next to a fluid cell (no-flux for the potentials): outward normal sign e_d.
+struct OuterFace {
+  std::ptrdiff_t cell;
+  int d, side;  // face index F = 1 (side 0) or n+1 (side 1) along d
+  int i, j, k;  // the cell
+  double area;
+};
+
+std::vector<Wall> walls_of(const Grid& g, const CellOwners& o) {
+  std::vector<Wall> w;
+  const Shape& s = o.shape;
+  for (int d = 0; d < 3; ++d) {
+    const ns::Axis& ad = g.axis[std::size_t(d)];
+    const int e = (d + 1) % 3, f = (d + 2) % 3;
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const int I[3] = {i, j, k};
+          if (!ad.periodic && I[d] == 1) continue;  // the domain's face
+          int lo[3] = {i, j, k};
+          --lo[d];
+          const std::ptrdiff_t nh = s(i, j, k), nl = s(lo[0], lo[1], lo[2]);
+          const int oh = o.owner[std::size_t(nh)], ol = o.owner[std::size_t(nl)];
+          if ((oh == -1) == (ol == -1) || oh < -1 || ol < -1) continue;
+          Wall x;
+          x.d = d;
+          x.sign = oh == -1 ? 1 : -1;
+          x.cell = oh == -1 ? nh : nl;
+          x.part = oh == -1 ? ol : oh;
+          x.x = Vec3(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]);
+          x.x[d] = ad.xf[std::size_t(I[d])];
+          x.area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])];
+          w.push_back(x);
+        }
+  }
+  return w;
+}
+
+std::vector<OuterFace> outer_faces_of(const Grid& g, const CellOwners& o) {
+  std::vector<OuterFace> out;
+  const Shape& s = o.shape;
+  for (int d = 0; d < 3; ++d) {
+    if (g.axis[std::size_t(d)].periodic) continue;
+    const int e = (d + 1) % 3, f = (d + 2) % 3;
+    for (int side = 0; side < 2; ++side)
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const int I[3] = {i, j, k};
+            if (I[d] != (side == 0 ? 1 : s.n(d))) continue;
+            const std::ptrdiff_t n = s(i, j, k);
+            if (!o.fluid(n)) continue;
+            out.push_back({n, d, side, i, j, k,
+                           g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])]});
+          }
+  }
+  return out;
+}
+
+// Neumann datum of component k on a wall: n_k, or ((x - x0) x n)_(k-3).
+double datum(const Wall& w, int k, const Vec3& x0) {
+  if (k < 3) return k == w.d ? double(w.sign) : 0.0;
+  return (w.x - x0).cross(w.n())[k - 3];
+}
+
+}  // namespace
+
+ForcePartition::ForcePartition(const Grid& g, FpmOptions options) : grid_(&g), opt_(std::move(options)) {
+  for (int k : opt_.components)
+    if (k < 0 || k > 5) throw std::invalid_argument("force partitioning: component " + std::to_string(k) + " is not 0..5");
+}
+
+const CellOwners& ForcePartition::owners() const {
+  if (!owners_) throw std::logic_error("force partitioning: no potentials yet (call update first)");
+  return *owners_;
+}
+
+const Field& ForcePartition::potential(int part, int component) const {
+  return phi_.at(std::size_t(part)).at(std::size_t(component));
+}
+
+const std::vector<PotentialReport>& ForcePartition::update(const ns::ImmersedBoundary& ib,
+                                                           const std::vector<PartState>& states) {
+  return update(ib.cell_owners(states), int(ib.parts()));
+}
+
+const std::vector<PotentialReport>& ForcePartition::update(const std::vector<int>& interior_owners, int parts) {
+  const Grid& g = *grid_;
+  owners_ = std::make_unique<CellOwners>(g, interior_owners, parts);
+  const CellOwners& o = *owners_;
+  const NeumannLaplacian L(g, o);
+  const std::vector<Wall> walls = walls_of(g, o);
+  const std::vector<OuterFace> outer = outer_faces_of(g, o);
+  double outer_area = 0;
+  for (const auto& f : outer)
+    if (L.active(f.i, f.j, f.k)) outer_area += f.area;
+  const Shape s = g.shape();
+  if (phi_.size() != std::size_t(parts)) {
+    phi_.assign(std::size_t(parts), {});
+    for (auto& a : phi_)
+      for (auto& f : a) f = Field(s);
+  }
+  reports_.clear();
+  Field b(s);
+  for (int p = 0; p < parts; ++p)
+    for (int k : opt_.components) {
+      b.fill(0);
+      double total = 0, magnitude = 0;
+      for (const Wall& w : walls) {
+        if (w.part != p) continue;
+        const std::ptrdiff_t c = w.cell;
+        const double flux = -w.area * datum(w, k, opt_.moment_point);
+        b[c] += flux;
+        total += flux;
+        magnitude += std::abs(flux);
+      }
+      // Where part p's wetted staircase is not closed (it touches another part), the fluxes do not sum to zero;
+      // the remainder leaves through the domain's faces, spread by area (a far-field source).
+      if (outer_area > 0)
+        for (const auto& f : outer)
+          if (L.active(f.i, f.j, f.k)) b[f.cell] -= total * f.area / outer_area;
+      PotentialReport r;
+      r.part = p;
+      r.component = k;
+      r.imbalance = magnitude > 0 ? std::abs(total) / magnitude : 0.0;
+      Field& phi = phi_[std::size_t(p)][std::size_t(k)];
+      r.stats = L.solve(phi, b, opt_.rtol, opt_.max_iterations);
+      // phi -> 0 far away: its area-weighted mean over the cells on the domain's faces is zero.
+      double mean = 0;
+      if (outer_area > 0) {
+        for (const auto& f : outer)
+          if (L.active(f.i, f.j, f.k)) mean += phi[f.cell] * f.area / outer_area;
+        for (int kk = 1; kk <= s.nz; ++kk)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int i = 1; i <= s.nx; ++i)
+              if (L.active(i, j, kk)) phi(i, j, kk) -= mean;
+      }
+      fill_periodic_ghosts(g, phi);
+      reports_.push_back(r);
+    }
+  return reports_;
+}
+
+std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, const std::vector<PartState>& states,
+                                                     double rho) {
+  if (!owners_) throw std::logic_error("force partitioning: partition() before update()");
+  if (solver.options().frame_rate.squaredNorm() > 0)
+    throw std::invalid_argument("force partitioning needs an inertial grid frame (this run's grid turns with the body)");
+  const Grid& g = *grid_;
+  const CellOwners& o = *owners_;
+  const Shape s = g.shape();
+  if (!(solver.grid().shape() == s)) throw std::invalid_argument("force partitioning: the solver's grid differs");
+  const int parts = o.parts;
+  if (states.size() != std::size_t(parts)) throw std::invalid_argument("force partitioning: part states do not match");
+  rho_ = rho;
+  const double mu = rho * solver.options().nu;
+  const ns::VectorField& u = solver.velocity();
+  const Field& p = solver.pressure();
+  const std::vector<Wall> walls = walls_of(g, o);
+  const std::vector<OuterFace> outer = outer_faces_of(g, o);
+  const Vec3& x0 = opt_.moment_point;
+
+  // Q at the cell centres (the solver's velocity, forced values inside the parts included)
+  q_ = ns::centre_fields(g, u).q;
+  auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1); };
+
+  // Du/Dt . n on the domain's faces next to fluid cells
+  std::vector<double> dudt_n(outer.size(), 0.0);
+  const double t = solver.time();
+  std::array<std::vector<double>, 6> un_now;
+  {
+    std::size_t m = 0;
+    for (const auto& f : outer) {
+      const int d = f.d, e = (d + 1) % 3, h = (d + 2) % 3;
+      const ns::Axis& ad = g.axis[std::size_t(d)];
+      int F[3] = {f.i, f.j, f.k};
+      F[d] = f.side == 0 ? 1 : ad.n + 1;
+      const Field& ud = u[d];
+      const double un = ud(F[0], F[1], F[2]);
+      // d u_d / d x_d one-sided into the domain
+      int G[3] = {F[0], F[1], F[2]};
+      G[d] += f.side == 0 ? 1 : -1;
+      const double dudd = (f.side == 0 ? ud(G[0], G[1], G[2]) - un : un - ud(G[0], G[1], G[2])) /
+                          ad.dc[std::size_t(f.side == 0 ? 1 : ad.n)];
+      double conv = un * dudd;
+      for (int a : {e, h}) {
+        const ns::Axis& aa = g.axis[std::size_t(a)];
+        // u_a at the boundary face: the four a-faces of the boundary cell and of its ghost image
+        int C[3] = {f.i, f.j, f.k}, Gh[3] = {f.i, f.j, f.k};
+        Gh[d] += f.side == 0 ? -1 : 1;
+        int C1[3] = {C[0], C[1], C[2]}, G1[3] = {Gh[0], Gh[1], Gh[2]};
+        ++C1[a];
+        ++G1[a];
+        const double ua = 0.25 * (u[a](C[0], C[1], C[2]) + u[a](C1[0], C1[1], C1[2]) + u[a](Gh[0], Gh[1], Gh[2]) +
+                                  u[a](G1[0], G1[1], G1[2]));
+        int P[3] = {F[0], F[1], F[2]}, M[3] = {F[0], F[1], F[2]};
+        ++P[a];
+        --M[a];
+        const double dx = aa.xc[std::size_t(P[a])] - aa.xc[std::size_t(M[a])];
+        conv += ua * (ud(P[0], P[1], P[2]) - ud(M[0], M[1], M[2])) / dx;
+      }
+      const int face_id = 2 * d + f.side;
+      un_now[std::size_t(face_id)].push_back(un);
+      double dt_term = 0;
+      const auto& prev = un_prev_[std::size_t(face_id)];
+      const std::size_t idx = un_now[std::size_t(face_id)].size() - 1;
+      if (have_prev_ && t > t_prev_ && idx < prev.size()) dt_term = (un - prev[idx]) / (t - t_prev_);
+      dudt_n[m++] = (dt_term + conv) * (f.side == 0 ? -1.0 : 1.0);
+    }
+  }
+
+  std::vector<PartPartition> out(static_cast<std::size_t>(parts));
+  for (int i = 0; i < parts; ++i) {
+    PartPartition& P = out[std::size_t(i)];
+    for (int k : opt_.components) {
+      const Field& phi = phi_[std::size_t(i)][std::size_t(k)];
+      double kin = 0, car = 0, direct = 0;
+      for (const Wall& w : walls) {
+        const PartState& st = states[std::size_t(w.part)];
+        const Vec3 r = w.x - st.velocity.centre;
+        const Vec3 centripetal = st.velocity.omega.cross(st.velocity.omega.cross(r));
+        const Vec3 a = st.acceleration + st.angular_acceleration.cross(r) + centripetal;
+        const Vec3 n = w.n();
+        kin += phi[w.cell] * a.dot(n) * w.area;
+        car += phi[w.cell] * centripetal.dot(n) * w.area;
+        if (w.part == i) direct -= p[w.cell] * datum(w, k, x0) * w.area;
+      }
+      double vortex = 0;
+#pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii)
+            if (o.fluid(s(ii, j, kk)))
+              vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk);
+      // mu int lap u . grad phi over the open faces (both cells fluid)
+      double visc = 0;
+      for (int d = 0; d < 3; ++d) {
+        const ns::Axis& ad = g.axis[std::size_t(d)];
+        const int e = (d + 1) % 3, h = (d + 2) % 3;
+        const Field& ud = u[d];
+#pragma omp parallel for schedule(static) reduction(+ : visc) if (ns::threaded(s))
+        for (int kk = 1; kk <= s.nz; ++kk)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int ii = 1; ii <= s.nx; ++ii) {
+              const int I[3] = {ii, j, kk};
+              if (!ad.periodic && I[d] == 1) continue;
+              int lo[3] = {ii, j, kk};
+              --lo[d];
+              const std::ptrdiff_t nh = s(ii, j, kk), nl = s(lo[0], lo[1], lo[2]);
+              if (!o.fluid(nh) || !o.fluid(nl)) continue;
+              // the MAC Laplacian of u_d at this face
+              int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
+              ++A[d];
+              --B[d];
+              const std::size_t F = std::size_t(I[d]);
+              double lap = ((ud(A[0], A[1], A[2]) - ud(ii, j, kk)) * ad.idc[F] -
+                            (ud(ii, j, kk) - ud(B[0], B[1], B[2])) * ad.idc[F - 1]) * ad.idf[F];
+              for (int a : {e, h}) {
+                const ns::Axis& aa = g.axis[std::size_t(a)];
+                int Pp[3] = {ii, j, kk}, Mm[3] = {ii, j, kk};
+                ++Pp[a];
+                --Mm[a];
+                const std::size_t J = std::size_t(I[a]);
+                lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(ii, j, kk)) * aa.idf[J + 1] -
+                        (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
+              }
+              const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+              visc += lap * (phi[nh] - phi[nl]) * area;  // grad phi df A = (phi_h - phi_l) A
+            }
+      }
+      double outer_term = 0;
+      for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
+      P.kinematic[k] = rho * kin;
+      P.centripetal[k] = rho * car;
+      P.vortex[k] = -2 * rho * vortex;
+      P.viscous[k] = mu * visc;
+      P.outer[k] = -rho * outer_term;
+      P.pressure[k] = rho * direct;
+    }
+    const PartState& st = states[std::size_t(i)];
+    const Vec3 v0 = st.velocity.at(x0), w = st.velocity.omega;
+    auto power = [&](const Vec6& f) { return -(f.head<3>().dot(v0) + f.tail<3>().dot(w)); };
+    P.power_kinematic = power(P.kinematic);
+    P.power_vortex = power(P.vortex);
+    P.power_viscous = power(P.viscous);
+    P.power_outer = power(P.outer);
+    P.power_pressure = power(P.pressure);
+  }
+  un_prev_ = std::move(un_now);
+  t_prev_ = t;
+  have_prev_ = true;
+  return out;
+}
+
+Eigen::Matrix<double, 6, 6> ForcePartition::added_mass(int i, int j, double rho) const {
+  const Grid& g = *grid_;
+  Eigen::Matrix<double, 6, 6> m = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const Wall& w : walls_of(g, owners()))
+    if (w.part == j)
+      for (int k : opt_.components)
+        for (int l = 0; l < 6; ++l) m(k, l) -= rho * potential(i, k)[w.cell] * datum(w, l, opt_.moment_point) * w.area;
+  return m;
+}
+
+std::vector<double> ForcePartition::vortex_density(int part, int component) const {
+  const Field& phi = potential(part, component);
+  const Shape s = grid_->shape();
+  std::vector<double> out(s.cells(), 0.0);
+  if (q_.size() != s.cells()) return out;
+  std::size_t m = 0;
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i, ++m)
+        if (owners_->fluid(s(i, j, k))) out[m] = -2 * rho_ * q_[m] * phi(i, j, k);
+  return out;
+}
+
+}  // namespace flapstab::fpm

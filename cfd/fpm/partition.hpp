@@ -1,0 +1,105 @@
+// Force partitioning (FPM) of the loads on immersed parts: each pressure force and moment component split into a
+// kinematic part fixed by the parts' own accelerations (classical added mass and the centripetal acceleration
+// reaction), a vortex-induced part (the Q criterion of the flow weighted by an influence potential), a viscous part
+// and an outer-boundary part (Zhang 2015, PhD thesis, Johns Hopkins University, ch. 3-4; Zhang, Hedrick & Mittal
+// 2015, PLoS ONE 10:e0132093; Menon & Mittal 2021, J Comput Phys 443:110515). Derivation, discrete forms and signs:
+// docs/theory/force-partitioning.md.
+//
+// For part i and component k the influence potential phi solves  lap phi = 0 in the fluid, d phi/dn = g_k on part
+// i (n out of the part into the fluid; g = n_k for a force component, ((x - x0) x n)_k for a moment about x0),
+// d phi/dn = 0 on the other parts and the domain's faces, phi -> 0 far away (its mean on the domain's faces is set
+// to zero). Then, exactly for incompressible flow with no-slip parts,
+//   F_k^pressure = -oint_{part i} p g_k dS
+//                =  rho sum_j oint_{part j} phi (a_j . n) dS   kinematic (a_j: part j's surface acceleration)
+//                 - 2 rho int_fluid Q phi dV                   vortex-induced
+//                 + mu int_fluid lap u . grad phi dV           viscous
+//                 - rho oint_domain phi (Du/Dt . n) dS         outer boundary (n out of the domain)
+// The skin friction on the part is not part of the pressure force; it is reported beside (the solver's loads).
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+#include <Eigen/Core>
+#include "cfd/fpm/laplace.hpp"
+#include "cfd/navier_stokes/immersed.hpp"
+#include "cfd/navier_stokes/solver.hpp"
+
+namespace flapstab::fpm {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;  // F_x, F_y, F_z (N), M_x, M_y, M_z (N m, about the moment point)
+using ns::PartState;
+using flapstab::Vec3;
+
+// The partition of one part's pressure load (grid axes).
+struct PartPartition {
+  std::string label;
+  Vec6 kinematic = Vec6::Zero();    // rho sum_j oint phi (a_j . n) dS, all parts' accelerations
+  Vec6 centripetal = Vec6::Zero();  // its share from the centripetal accelerations omega x (omega x r): the CAR
+  Vec6 vortex = Vec6::Zero();       // -2 rho int Q phi dV
+  Vec6 viscous = Vec6::Zero();      // mu int lap u . grad phi dV
+  Vec6 outer = Vec6::Zero();        // -rho oint_domain phi Du/Dt . n dS
+  Vec6 pressure = Vec6::Zero();     // -oint p g dS on the staircase surface (the partition's sum, computed directly)
+  // Rate of work of the part on the fluid by mechanism, W: -(F . v(x0) + M . omega) with the part's rigid velocity.
+  double power_kinematic = 0, power_vortex = 0, power_viscous = 0, power_outer = 0, power_pressure = 0;
+  Vec6 sum() const { return kinematic + vortex + viscous + outer; }
+  Vec6 added_mass() const { return kinematic - centripetal; }  // classical: from a + alpha x r
+};
+
+struct FpmOptions {
+  double rtol = 1e-8;        // potentials: max residual / max right-hand side
+  int max_iterations = 400;  // per potential solve
+  Vec3 moment_point = Vec3::Zero();  // x0 of the moment potentials (grid axes)
+  std::vector<int> components{0, 1, 2, 3, 4, 5};  // which of F_x .. M_z to partition (the rest stay zero)
+};
+
+struct PotentialReport {
+  int part = 0, component = 0;
+  LaplaceStats stats;
+  double imbalance = 0;  // |sum of the Neumann fluxes| / sum of their magnitudes (0 for a closed wetted surface)
+};
+
+class ForcePartition {
+ public:
+  ForcePartition(const Grid& g, FpmOptions options = {});
+
+  // Solves the influence potentials of every part and chosen component for the parts at `states` (the cell owners
+  // from the immersed boundary's level sets), each from the previous call's potential (warm start).
+  // std::invalid_argument when the states do not match the immersed boundary's parts.
+  const std::vector<PotentialReport>& update(const ns::ImmersedBoundary& ib, const std::vector<PartState>& states);
+  // The same for a given cell ownership (interior cells, x fastest: -1 fluid, else the part, 0 .. parts-1).
+  const std::vector<PotentialReport>& update(const std::vector<int>& interior_owners, int parts);
+
+  // The partition at the solver's current state for the parts at `states` (the same as the last update's), fluid
+  // density rho. Needs update() first (std::logic_error). The outer term's d u_n / dt comes from the previous call's
+  // boundary velocities (zero at the first call). Throws std::invalid_argument for a rotating grid frame (the
+  // partition is derived for an inertial frame).
+  std::vector<PartPartition> partition(const ns::Solver& solver, const std::vector<PartState>& states, double rho);
+
+  const CellOwners& owners() const;
+  // Added-mass matrix of part i with respect to the motion of part j (6 x 6, kg, kg m, kg m^2): the kinematic load on
+  // part i is -M_ij (a_j, alpha_j) for rigid accelerations of part j about the moment point,
+  // M_ij(k, l) = -rho oint_{part j} phi_(i,k) g_l dS (g_l part j's Neumann datum of component l). Rows of components
+  // not partitioned are zero.
+  Eigen::Matrix<double, 6, 6> added_mass(int part_i, int part_j, double rho) const;
+  const Field& potential(int part, int component) const;
+  // -2 rho Q phi at the cell centres for (part, component) from the last partition (N/m^3 for a force component):
+  // the vortex-induced force density whose volume integral is that part's vortex term. Interior cells, x fastest.
+  std::vector<double> vortex_density(int part, int component) const;
+  const FpmOptions& options() const { return opt_; }
+  const std::vector<PotentialReport>& reports() const { return reports_; }
+
+ private:
+  const Grid* grid_;
+  FpmOptions opt_;
+  std::unique_ptr<CellOwners> owners_;
+  std::vector<std::array<Field, 6>> phi_;  // per part
+  std::vector<PotentialReport> reports_;
+  std::vector<double> q_;                   // last partition's Q at the cell centres
+  double rho_ = 0;
+  // previous boundary normal velocities for d u_n / dt (per domain face, per boundary face)
+  std::array<std::vector<double>, 6> un_prev_;
+  double t_prev_ = 0;
+  bool have_prev_ = false;
+};
+
+}  // namespace flapstab::fpm
