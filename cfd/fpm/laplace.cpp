@@ -150,37 +150,6 @@ double dot_active(const Level& L, const Field& f, const Field& g) {
 
 }  // namespace
 
-CellOwners::CellOwners(const Grid& g, const std::vector<int>& interior, int parts_) : shape(g.shape()), parts(parts_) {
-  const Shape& s = shape;
-  if (interior.size() != s.cells())
-    throw std::invalid_argument("force partitioning: cell owners of " + std::to_string(interior.size()) +
-                                " cells for a grid of " + std::to_string(s.cells()));
-  owner.assign(s.size(), -2);
-  for (int k = 1; k <= s.nz; ++k)
-    for (int j = 1; j <= s.ny; ++j)
-      for (int i = 1; i <= s.nx; ++i)
-        owner[std::size_t(s(i, j, k))] =
-            interior[(std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1)];
-  for (int a = 0; a < 3; ++a) {
-    if (!g.axis[std::size_t(a)].periodic) continue;
-    const int b = (a + 1) % 3, c = (a + 2) % 3, n = s.n(a);
-    for (int kc = 0; kc <= s.n(c) + 1; ++kc)
-      for (int kb = 0; kb <= s.n(b) + 1; ++kb) {
-        const std::ptrdiff_t l = kb * s.stride(b) + kc * s.stride(c);
-        owner[std::size_t(l)] = owner[std::size_t(l + n * s.stride(a))];
-        owner[std::size_t(l + (n + 1) * s.stride(a))] = owner[std::size_t(l + s.stride(a))];
-      }
-  }
-}
-
-std::size_t CellOwners::fluid_cells() const {
-  std::size_t n = 0;
-  for (int k = 1; k <= shape.nz; ++k)
-    for (int j = 1; j <= shape.ny; ++j)
-      for (int i = 1; i <= shape.nx; ++i) n += fluid(shape(i, j, k));
-  return n;
-}
-
 void fill_periodic_ghosts(const Grid& g, Field& x) {
   const bool p[3] = {g.axis[0].periodic, g.axis[1].periodic, g.axis[2].periodic};
   fill_ghosts(x.shape(), p, x.data());
@@ -243,8 +212,8 @@ struct NeumannLaplacian::Impl {
   }
 };
 
-NeumannLaplacian::NeumannLaplacian(const Grid& g, const CellOwners& owners) : impl_(std::make_unique<Impl>()) {
-  if (!(owners.shape == g.shape())) throw std::invalid_argument("force partitioning: cell owners of another grid");
+NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : impl_(std::make_unique<Impl>()) {
+  if (!(geo.shape == g.shape())) throw std::invalid_argument("force partitioning: a fluid geometry of another grid");
   for (int d = 0; d < 3; ++d)
     if (g.axis[std::size_t(d)].periodic && g.axis[std::size_t(d)].n % 2 != 0)
       throw std::invalid_argument("force partitioning: a periodic axis needs an even number of cells (axis " +
@@ -265,12 +234,10 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const CellOwners& owners) : im
             const int F = I[d];
             if (!ad.periodic && (F == 1 || F == s.n(d) + 1)) continue;  // the domain's faces: no flux
             if (ad.periodic && F == s.n(d) + 1) continue;                 // the image of face 1 (finish())
-            int lo[3] = {i, j, k};
-            --lo[d];
-            const std::ptrdiff_t nh = s(i, j, k), nl = s(lo[0], lo[1], lo[2]);
-            if (!owners.fluid(nh) || !owners.fluid(nl)) continue;
+            const double beta = geo.aperture[std::size_t(d)](i, j, k);
+            if (beta <= 0) continue;
             const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])];
-            L.a[d](i, j, k) = area / ad.df[std::size_t(F)];
+            L.a[d](i, j, k) = beta * area / ad.df[std::size_t(F)];
           }
     }
     L.finish();

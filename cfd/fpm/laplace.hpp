@@ -1,12 +1,11 @@
 // Laplace problems in the fluid part of a CFD grid with Neumann conditions on immersed bodies: the influence
 // potentials of force partitioning (docs/theory/force-partitioning.md).
 //
-// Discretisation: a cell belongs to the fluid or to one solid part (the immersed boundary's level sets at its
-// centre, ImmersedBoundary::cell_owners), so each body is a staircase of cell faces. In the volume-integrated form
-//   (A phi)_c = sum over the open faces f of c of a_f (phi_c - phi_nb),   a_f = A_f / df_f
-// (A_f the face area, df_f the centre spacing across it), a face is open when both its cells are fluid; faces to a
-// solid cell, and the domain's faces, carry no conductance. A Neumann datum g = d phi / dn (n out of the body, into
-// the fluid) on a staircase face enters the right-hand side as -A_f g (the flux out of the fluid cell is -g A_f).
+// Discretisation: cut cells (geometry.hpp). In the volume-integrated form
+//   (A phi)_c = sum over the faces f of c of a_f (phi_c - phi_nb),   a_f = beta_f A_f / df_f
+// (beta_f the face's open fraction, A_f its area, df_f the centre spacing across it); the domain's faces carry no
+// conductance. A Neumann datum g = d phi / dn (n out of the body, into the fluid) on the surface piece in a cell
+// enters the right-hand side as -int g dS (the flux out of the fluid).
 // The discrete Green identity sum_c phi_c (A phi)_c = sum_open a_f (phi_c - phi_nb)^2 holds exactly, so the
 // partition's discrete integrals inherit the continuous identities (docs/theory).
 //
@@ -19,26 +18,13 @@
 #include <cstddef>
 #include <memory>
 #include <vector>
-#include "cfd/navier_stokes/field.hpp"
-#include "cfd/navier_stokes/grid.hpp"
+#include "cfd/fpm/geometry.hpp"
 
 namespace flapstab::fpm {
 
 using ns::Field;
 using ns::Grid;
 using ns::Shape;
-
-// Which part holds each cell: owner[Shape index] = -1 fluid, p >= 0 the part; ghost entries are -2 (outside the
-// domain) or, on a periodic axis, the image's owner.
-struct CellOwners {
-  Shape shape;
-  std::vector<int> owner;
-  int parts = 0;
-  // From the immersed boundary's interior array (x fastest, -1 fluid, else the part).
-  CellOwners(const Grid& g, const std::vector<int>& interior, int parts);
-  bool fluid(std::ptrdiff_t n) const { return owner[std::size_t(n)] == -1; }
-  std::size_t fluid_cells() const;
-};
 
 struct LaplaceStats {
   int iterations = 0;
@@ -49,7 +35,7 @@ struct LaplaceStats {
 class NeumannLaplacian {
  public:
   // Throws std::invalid_argument for a periodic axis with an odd cell count (the red-black colouring needs even).
-  NeumannLaplacian(const Grid& g, const CellOwners& owners);
+  NeumannLaplacian(const Grid& g, const FluidGeometry& geometry);
   ~NeumannLaplacian();
   NeumannLaplacian(NeumannLaplacian&&) noexcept;
   NeumannLaplacian& operator=(NeumannLaplacian&&) noexcept;

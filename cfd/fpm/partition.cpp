@@ -10,21 +10,6 @@ namespace flapstab::fpm {
 
 namespace {
 
-// A staircase face between a fluid cell and a cell of a part: n points from the part into the fluid (+-e_d).
-struct Wall {
-  std::ptrdiff_t cell;  // the fluid cell (Shape index)
-  int part;
-  int d;
-  int sign;             // n = sign e_d
-  Vec3 x;               // face centre (m)
-  double area;          // m^2
-  Vec3 n() const {
-    Vec3 v = Vec3::Zero();
-    v[d] = sign;
-    return v;
-  }
-};
-
 // A face of the domain next to a fluid cell (no-flux for the potentials): outward normal sign e_d.
 struct OuterFace {
   std::ptrdiff_t cell;
@@ -33,37 +18,7 @@ struct OuterFace {
   double area;
 };
 
-std::vector<Wall> walls_of(const Grid& g, const CellOwners& o) {
-  std::vector<Wall> w;
-  const Shape& s = o.shape;
-  for (int d = 0; d < 3; ++d) {
-    const ns::Axis& ad = g.axis[std::size_t(d)];
-    const int e = (d + 1) % 3, f = (d + 2) % 3;
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const int I[3] = {i, j, k};
-          if (!ad.periodic && I[d] == 1) continue;  // the domain's face
-          int lo[3] = {i, j, k};
-          --lo[d];
-          const std::ptrdiff_t nh = s(i, j, k), nl = s(lo[0], lo[1], lo[2]);
-          const int oh = o.owner[std::size_t(nh)], ol = o.owner[std::size_t(nl)];
-          if ((oh == -1) == (ol == -1) || oh < -1 || ol < -1) continue;
-          Wall x;
-          x.d = d;
-          x.sign = oh == -1 ? 1 : -1;
-          x.cell = oh == -1 ? nh : nl;
-          x.part = oh == -1 ? ol : oh;
-          x.x = Vec3(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]);
-          x.x[d] = ad.xf[std::size_t(I[d])];
-          x.area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])];
-          w.push_back(x);
-        }
-  }
-  return w;
-}
-
-std::vector<OuterFace> outer_faces_of(const Grid& g, const CellOwners& o) {
+std::vector<OuterFace> outer_faces_of(const Grid& g, const FluidGeometry& o) {
   std::vector<OuterFace> out;
   const Shape& s = o.shape;
   for (int d = 0; d < 3; ++d) {
@@ -76,7 +31,7 @@ std::vector<OuterFace> outer_faces_of(const Grid& g, const CellOwners& o) {
             const int I[3] = {i, j, k};
             if (I[d] != (side == 0 ? 1 : s.n(d))) continue;
             const std::ptrdiff_t n = s(i, j, k);
-            if (!o.fluid(n)) continue;
+            if (!o.active(n)) continue;
             out.push_back({n, d, side, i, j, k,
                            g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])]});
           }
@@ -84,10 +39,10 @@ std::vector<OuterFace> outer_faces_of(const Grid& g, const CellOwners& o) {
   return out;
 }
 
-// Neumann datum of component k on a wall: n_k, or ((x - x0) x n)_(k-3).
-double datum(const Wall& w, int k, const Vec3& x0) {
-  if (k < 3) return k == w.d ? double(w.sign) : 0.0;
-  return (w.x - x0).cross(w.n())[k - 3];
+// The Neumann datum of component k integrated over a surface piece: int n_k dS, or int ((x - x0) x n)_(k-3) dS.
+double datum(const FluidGeometry::Cut& c, int k, const Vec3& x0) {
+  if (k < 3) return c.area[k];
+  return (c.moment - x0.cross(c.area))[k - 3];
 }
 
 }  // namespace
@@ -97,9 +52,9 @@ ForcePartition::ForcePartition(const Grid& g, FpmOptions options) : grid_(&g), o
     if (k < 0 || k > 5) throw std::invalid_argument("force partitioning: component " + std::to_string(k) + " is not 0..5");
 }
 
-const CellOwners& ForcePartition::owners() const {
-  if (!owners_) throw std::logic_error("force partitioning: no potentials yet (call update first)");
-  return *owners_;
+const FluidGeometry& ForcePartition::geometry() const {
+  if (!geometry_) throw std::logic_error("force partitioning: no potentials yet (call update first)");
+  return *geometry_;
 }
 
 const Field& ForcePartition::potential(int part, int component) const {
@@ -108,15 +63,21 @@ const Field& ForcePartition::potential(int part, int component) const {
 
 const std::vector<PotentialReport>& ForcePartition::update(const ns::ImmersedBoundary& ib,
                                                            const std::vector<PartState>& states) {
-  return update(ib.cell_owners(states), int(ib.parts()));
+  if (states.size() != ib.parts())
+    throw std::invalid_argument("force partitioning: " + std::to_string(states.size()) + " part states for " +
+                                std::to_string(ib.parts()) + " parts");
+  const LevelFunction level = [&](int part, const Vec3& x, double h) {
+    return ib.solid_level_set(part, states[std::size_t(part)], x, h);
+  };
+  return update(level, int(ib.parts()), ib.cell_owners(states));
 }
 
-const std::vector<PotentialReport>& ForcePartition::update(const std::vector<int>& interior_owners, int parts) {
+const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& level, int parts,
+                                                           const std::vector<int>& owners) {
   const Grid& g = *grid_;
-  owners_ = std::make_unique<CellOwners>(g, interior_owners, parts);
-  const CellOwners& o = *owners_;
+  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples));
+  const FluidGeometry& o = *geometry_;
   const NeumannLaplacian L(g, o);
-  const std::vector<Wall> walls = walls_of(g, o);
   const std::vector<OuterFace> outer = outer_faces_of(g, o);
   double outer_area = 0;
   for (const auto& f : outer)
@@ -133,11 +94,10 @@ const std::vector<PotentialReport>& ForcePartition::update(const std::vector<int
     for (int k : opt_.components) {
       b.fill(0);
       double total = 0, magnitude = 0;
-      for (const Wall& w : walls) {
-        if (w.part != p) continue;
-        const std::ptrdiff_t c = w.cell;
-        const double flux = -w.area * datum(w, k, opt_.moment_point);
-        b[c] += flux;
+      for (const auto& c : o.cuts) {
+        if (c.part != p) continue;
+        const double flux = -datum(c, k, opt_.moment_point);
+        b[c.cell] += flux;
         total += flux;
         magnitude += std::abs(flux);
       }
@@ -170,11 +130,11 @@ const std::vector<PotentialReport>& ForcePartition::update(const std::vector<int
 
 std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, const std::vector<PartState>& states,
                                                      double rho) {
-  if (!owners_) throw std::logic_error("force partitioning: partition() before update()");
+  if (!geometry_) throw std::logic_error("force partitioning: partition() before update()");
   if (solver.options().frame_rate.squaredNorm() > 0)
     throw std::invalid_argument("force partitioning needs an inertial grid frame (this run's grid turns with the body)");
   const Grid& g = *grid_;
-  const CellOwners& o = *owners_;
+  const FluidGeometry& o = *geometry_;
   const Shape s = g.shape();
   if (!(solver.grid().shape() == s)) throw std::invalid_argument("force partitioning: the solver's grid differs");
   const int parts = o.parts;
@@ -183,7 +143,6 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   const double mu = rho * solver.options().nu;
   const ns::VectorField& u = solver.velocity();
   const Field& p = solver.pressure();
-  const std::vector<Wall> walls = walls_of(g, o);
   const std::vector<OuterFace> outer = outer_faces_of(g, o);
   const Vec3& x0 = opt_.moment_point;
 
@@ -242,23 +201,21 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     for (int k : opt_.components) {
       const Field& phi = phi_[std::size_t(i)][std::size_t(k)];
       double kin = 0, car = 0, direct = 0;
-      for (const Wall& w : walls) {
-        const PartState& st = states[std::size_t(w.part)];
-        const Vec3 r = w.x - st.velocity.centre;
+      for (const auto& c : o.cuts) {
+        const PartState& st = states[std::size_t(c.part)];
+        const Vec3 r = c.centroid - st.velocity.centre;
         const Vec3 centripetal = st.velocity.omega.cross(st.velocity.omega.cross(r));
         const Vec3 a = st.acceleration + st.angular_acceleration.cross(r) + centripetal;
-        const Vec3 n = w.n();
-        kin += phi[w.cell] * a.dot(n) * w.area;
-        car += phi[w.cell] * centripetal.dot(n) * w.area;
-        if (w.part == i) direct -= p[w.cell] * datum(w, k, x0) * w.area;
+        kin += phi[c.cell] * a.dot(c.area);
+        car += phi[c.cell] * centripetal.dot(c.area);
+        if (c.part == i) direct -= p[c.cell] * datum(c, k, x0);
       }
       double vortex = 0;
 #pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
       for (int kk = 1; kk <= s.nz; ++kk)
         for (int j = 1; j <= s.ny; ++j)
           for (int ii = 1; ii <= s.nx; ++ii)
-            if (o.fluid(s(ii, j, kk)))
-              vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk);
+            vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
       // mu int lap u . grad phi over the open faces (both cells fluid)
       double visc = 0;
       for (int d = 0; d < 3; ++d) {
@@ -271,10 +228,11 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
             for (int ii = 1; ii <= s.nx; ++ii) {
               const int I[3] = {ii, j, kk};
               if (!ad.periodic && I[d] == 1) continue;
+              const double beta = o.aperture[std::size_t(d)](ii, j, kk);
+              if (beta <= 0) continue;
               int lo[3] = {ii, j, kk};
               --lo[d];
               const std::ptrdiff_t nh = s(ii, j, kk), nl = s(lo[0], lo[1], lo[2]);
-              if (!o.fluid(nh) || !o.fluid(nl)) continue;
               // the MAC Laplacian of u_d at this face
               int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
               ++A[d];
@@ -292,7 +250,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
                         (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
               }
               const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
-              visc += lap * (phi[nh] - phi[nl]) * area;  // grad phi df A = (phi_h - phi_l) A
+              visc += lap * (phi[nh] - phi[nl]) * beta * area;  // grad phi df beta A = (phi_h - phi_l) beta A
             }
       }
       double outer_term = 0;
@@ -320,12 +278,11 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
 }
 
 Eigen::Matrix<double, 6, 6> ForcePartition::added_mass(int i, int j, double rho) const {
-  const Grid& g = *grid_;
   Eigen::Matrix<double, 6, 6> m = Eigen::Matrix<double, 6, 6>::Zero();
-  for (const Wall& w : walls_of(g, owners()))
-    if (w.part == j)
+  for (const auto& c : geometry().cuts)
+    if (c.part == j)
       for (int k : opt_.components)
-        for (int l = 0; l < 6; ++l) m(k, l) -= rho * potential(i, k)[w.cell] * datum(w, l, opt_.moment_point) * w.area;
+        for (int l = 0; l < 6; ++l) m(k, l) -= rho * potential(i, k)[c.cell] * datum(c, l, opt_.moment_point);
   return m;
 }
 
@@ -338,7 +295,7 @@ std::vector<double> ForcePartition::vortex_density(int part, int component) cons
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i, ++m)
-        if (owners_->fluid(s(i, j, k))) out[m] = -2 * rho_ * q_[m] * phi(i, j, k);
+        out[m] = -2 * rho_ * q_[m] * phi(i, j, k) * geometry_->volume_fraction(i, j, k);
   return out;
 }
 

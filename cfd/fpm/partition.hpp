@@ -5,6 +5,7 @@
 // 2015, PLoS ONE 10:e0132093; Menon & Mittal 2021, J Comput Phys 443:110515). Derivation, discrete forms and signs:
 // docs/theory/force-partitioning.md.
 //
+// Discretisation: cut cells (geometry.hpp): face apertures and surface pieces from the parts' level sets.
 // For part i and component k the influence potential phi solves  lap phi = 0 in the fluid, d phi/dn = g_k on part
 // i (n out of the part into the fluid; g = n_k for a force component, ((x - x0) x n)_k for a moment about x0),
 // d phi/dn = 0 on the other parts and the domain's faces, phi -> 0 far away (its mean on the domain's faces is set
@@ -50,6 +51,7 @@ struct FpmOptions {
   int max_iterations = 400;  // per potential solve
   Vec3 moment_point = Vec3::Zero();  // x0 of the moment potentials (grid axes)
   std::vector<int> components{0, 1, 2, 3, 4, 5};  // which of F_x .. M_z to partition (the rest stay zero)
+  int face_samples = 4;  // m x m points per face near a surface for the cut-cell apertures
 };
 
 struct PotentialReport {
@@ -66,8 +68,9 @@ class ForcePartition {
   // from the immersed boundary's level sets), each from the previous call's potential (warm start).
   // std::invalid_argument when the states do not match the immersed boundary's parts.
   const std::vector<PotentialReport>& update(const ns::ImmersedBoundary& ib, const std::vector<PartState>& states);
-  // The same for a given cell ownership (interior cells, x fastest: -1 fluid, else the part, 0 .. parts-1).
-  const std::vector<PotentialReport>& update(const std::vector<int>& interior_owners, int parts);
+  // The same for parts given by their level sets (`owners`: the part holding each interior cell's centre, x fastest,
+  // -1 fluid; owners_of() computes it).
+  const std::vector<PotentialReport>& update(const LevelFunction& level, int parts, const std::vector<int>& owners);
 
   // The partition at the solver's current state for the parts at `states` (the same as the last update's), fluid
   // density rho. Needs update() first (std::logic_error). The outer term's d u_n / dt comes from the previous call's
@@ -75,7 +78,7 @@ class ForcePartition {
   // partition is derived for an inertial frame).
   std::vector<PartPartition> partition(const ns::Solver& solver, const std::vector<PartState>& states, double rho);
 
-  const CellOwners& owners() const;
+  const FluidGeometry& geometry() const;
   // Added-mass matrix of part i with respect to the motion of part j (6 x 6, kg, kg m, kg m^2): the kinematic load on
   // part i is -M_ij (a_j, alpha_j) for rigid accelerations of part j about the moment point,
   // M_ij(k, l) = -rho oint_{part j} phi_(i,k) g_l dS (g_l part j's Neumann datum of component l). Rows of components
@@ -91,7 +94,7 @@ class ForcePartition {
  private:
   const Grid* grid_;
   FpmOptions opt_;
-  std::unique_ptr<CellOwners> owners_;
+  std::unique_ptr<FluidGeometry> geometry_;
   std::vector<std::array<Field, 6>> phi_;  // per part
   std::vector<PotentialReport> reports_;
   std::vector<double> q_;                   // last partition's Q at the cell centres

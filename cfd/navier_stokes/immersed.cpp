@@ -706,6 +706,10 @@ double ImmersedBoundary::level_set(int part, double t, const Vec3& x) const {
   return p.ls.at(state(part, t).pose.apply_inverse(x));
 }
 
+double ImmersedBoundary::solid_level_set(int part, const PartState& st, const Vec3& x, double h) const {
+  return impl_->phi(impl_->parts.at(std::size_t(part)), st.pose, x, h);
+}
+
 std::vector<double> ImmersedBoundary::solid_mask(double t) const {
   const Shape sh = impl_->grid.shape();
   std::vector<double> mask(std::size_t(sh.nx) * sh.ny * sh.nz, 0.0);

@@ -112,6 +112,10 @@ class ImmersedBoundary final : public StageHooks {
   // centre lies in the fluid, else the index of the part whose level set is lowest there (solid as in solid_mask).
   // The force partitioning's staircase fluid region.
   std::vector<int> cell_owners(const std::vector<PartState>& states) const;
+  // The level set that decides solid and fluid for part `part` placed at `state`, at world point x for a cell or
+  // face of local width h (m): signed distance (negative inside) for a closed part; for a membrane the distance to
+  // its mid-surface less the half thickness the forcing uses (membrane_half_thickness h).
+  double solid_level_set(int part, const PartState& state, const Vec3& x, double h) const;
 
   // Places the parts at the solver's time, marks cell flags (solid / ghost = interface band / fluid) and
   // attaches itself to the solver's stages. Call after solver.initialise() (or restore()).

@@ -16,20 +16,10 @@ using namespace flapstab::ns;
 using fpm::ForcePartition;
 constexpr double pi = 3.14159265358979323846;
 
-// Cell owners of spheres: part 0 inside radius R1 about the origin; with R2 > 0, part 1 outside radius R2 (a fixed
+// Level sets of spheres: part 0 inside radius R1 about the origin; with R2 > 0, part 1 outside radius R2 (a fixed
 // spherical container).
-std::vector<int> spheres(const Grid& g, double R1, double R2 = 0) {
-  const Shape s = g.shape();
-  std::vector<int> o(s.cells(), -1);
-  std::size_t m = 0;
-  for (int k = 1; k <= s.nz; ++k)
-    for (int j = 1; j <= s.ny; ++j)
-      for (int i = 1; i <= s.nx; ++i, ++m) {
-        const double r = std::sqrt(std::pow(g.axis[0].xc[i], 2) + std::pow(g.axis[1].xc[j], 2) + std::pow(g.axis[2].xc[k], 2));
-        if (r < R1) o[m] = 0;
-        else if (R2 > 0 && r > R2) o[m] = 1;
-      }
-  return o;
+fpm::LevelFunction spheres(double R1, double R2 = 0) {
+  return [=](int part, const Vec3& x, double) { return part == 0 ? x.norm() - R1 : R2 - x.norm(); };
 }
 
 Grid sphere_grid(double h, double lo, double hi, double box) {
@@ -49,7 +39,8 @@ PotentialError sphere_potential(double h) {
   const double R = 0.5;
   const Grid g = sphere_grid(h, -4, 4, 0.8);
   ForcePartition f(g, {.components = {0}});
-  const auto& rep = f.update(spheres(g, R), 1);
+  const auto level = spheres(R);
+  const auto& rep = f.update(level, 1, fpm::owners_of(g, 1, level));
   PotentialError e;
   e.iterations = rep[0].stats.iterations;
   EXPECT_TRUE(rep[0].stats.converged);
@@ -77,27 +68,28 @@ PotentialError sphere_potential(double h) {
 
 // The influence potential of a sphere for F_x is the potential of the sphere translating at unit speed,
 // phi = -(R^3 / 2 r^2) cos theta (Lamb 1932, Hydrodynamics, section 92), and its kinematic term is the added mass
-// m_a = rho V / 2. The staircase discretisation is first order: the errors at h = R/6 and R/12 are asserted to fall
-// at least 1.6-fold (first order: 2) and, halving the coarse grid's errors (rms 3.3 %, added mass 9.5 %), below 3 %
-// (potential, rms over R + 2h < r < 2R) and 5 % (added mass) on the finer grid. The box (8 R wide, no-flux faces)
-// raises the added mass by about 0.3 % (the image dipole, (R/L)^3).
+// m_a = rho V / 2. The box (8 R wide, no-flux faces, phi's mean on them zero) differs from the unbounded fluid by
+// about (R/L)^3 ~ 0.2-0.6 % (a sphere inside a sphere of radius 8 R: +0.59 %, see the next test's formula), which
+// floors the comparison; the tolerance is 1 % on both grids (h = R/6, R/12) for the potential (rms over
+// R + 2h < r < 2R, relative to R/2) and the added mass. Measured: rms 0.30 %, 0.24 %; added mass -0.24 %, -0.10 %
+// (a staircase of whole cells instead of cut cells gave 3.3 %, 1.4 % and +9.5 %, +3.2 %).
 TEST(FpmPotential, SphereAgainstTheTranslatingSpherePotential) {
   const double R = 0.5, V = 4.0 / 3.0 * pi * R * R * R;
   const PotentialError c = sphere_potential(R / 6), f = sphere_potential(R / 12);
   for (const auto& [name, e] : {std::pair{"R/6", c}, std::pair{"R/12", f}})
     fmt::print("h = {}: {} cells, {} iterations; phi error max {:.4f} rms {:.4f}; added mass / (rho V/2) = {:.4f}\n",
                name, e.cells, e.iterations, e.max_error, e.rms_error, e.added_mass / (V / 2));
-  EXPECT_LT(f.rms_error, 0.03);
-  EXPECT_GT(c.rms_error / f.rms_error, 1.6);
-  EXPECT_NEAR(f.added_mass / (V / 2), 1.0, 0.05);
-  EXPECT_GT(std::abs(c.added_mass / (V / 2) - 1) / std::abs(f.added_mass / (V / 2) - 1), 1.6);
+  for (const auto& e : {c, f}) {
+    EXPECT_LT(e.rms_error, 0.01);
+    EXPECT_NEAR(e.added_mass / (V / 2), 1.0, 0.01);
+  }
 }
 
 // A sphere R1 inside a fixed concentric sphere R2 (both no-flux): m_a = (2/3) rho pi R1^3 [1 + 2 (R1/R2)^3] /
 // [1 - (R1/R2)^3] (Lamb 1932, section 92; Zhang 2015 thesis uses it for the confined FPM check). R1/R2 = 1/2:
-// 1.4286 x rho V / 2. The kinematic load on the inner sphere from the outer one's motion is zero here (it is fixed),
-// but the cross term M_01 of the added-mass matrix exists; the container's own Neumann faces enter as part 1.
-// Tolerances as for the free sphere: first order, 5 % at h = R1/12, the error falling at least 1.6-fold from R1/6.
+// 1.4286 x rho V / 2. The container enters as part 1 (fixed, no-flux). No box effect here: the error is the
+// discretisation's. Tolerance 2 % at h = R1/6 and 0.5 % at R1/12 (measured -1.00 %, +0.04 %; a staircase of whole
+// cells gave +10.2 % and +5.9 %).
 TEST(FpmPotential, SphereInsideAFixedSphere) {
   const double R1 = 0.5, R2 = 1.0, V = 4.0 / 3.0 * pi * R1 * R1 * R1, q = std::pow(R1 / R2, 3);
   const double exact = 0.5 * V * (1 + 2 * q) / (1 - q);
@@ -106,15 +98,16 @@ TEST(FpmPotential, SphereInsideAFixedSphere) {
   for (double h : {R1 / 6, R1 / 12}) {
     const Grid g = sphere_grid(h, -1.2, 1.2, 1.1);
     ForcePartition f(g, {.components = {0}});
-    const auto& rep = f.update(spheres(g, R1, R2), 2);
+    const auto level = spheres(R1, R2);
+    const auto& rep = f.update(level, 2, fpm::owners_of(g, 2, level));
     EXPECT_TRUE(rep[0].stats.converged);
     const double m = f.added_mass(0, 0, 1.0)(0, 0);
     err[n++] = m / exact - 1;
     fmt::print("h = R1/{:.0f}: {} cells, {} iterations; added mass {:.5f}, exact {:.5f} ({:+.2f} %)\n", R1 / h,
                g.cells(), rep[0].stats.iterations, m, exact, 100 * (m / exact - 1));
   }
-  EXPECT_LT(std::abs(err[1]), 0.05);
-  EXPECT_GT(std::abs(err[0]) / std::abs(err[1]), 1.6);
+  EXPECT_LT(std::abs(err[0]), 0.02);
+  EXPECT_LT(std::abs(err[1]), 0.005);
 }
 
 }  // namespace

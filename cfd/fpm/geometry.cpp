@@ -1,0 +1,207 @@
+// Cut-cell geometry of the fluid region (geometry.hpp).
+#include "cfd/fpm/geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace flapstab::fpm {
+
+namespace {
+
+// A part's solid share of one face.
+struct FaceSolid {
+  int d;
+  int I[3];  // face index (the lower face of cell I along d)
+  int part;
+  double fraction;
+  Vec3 centroid;
+};
+
+// Lowest level over the parts at x: (value, part).
+std::pair<double, int> lowest(const LevelFunction& level, int parts, const Vec3& x, double h) {
+  double v = std::numeric_limits<double>::infinity();
+  int who = -1;
+  for (int p = 0; p < parts; ++p) {
+    const double l = level(p, x, h);
+    if (l < v) v = l, who = p;
+  }
+  return {v, who};
+}
+
+}  // namespace
+
+std::vector<int> owners_of(const Grid& g, int parts, const LevelFunction& level) {
+  const Shape s = g.shape();
+  std::vector<int> o(s.cells(), -1);
+  std::size_t m = 0;
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i, ++m) {
+        const Vec3 x(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]);
+        const double h = std::max({g.axis[0].dc[std::size_t(i)], g.axis[1].dc[std::size_t(j)], g.axis[2].dc[std::size_t(k)]});
+        const auto [v, who] = lowest(level, parts, x, h);
+        if (v < 0) o[m] = who;
+      }
+  return o;
+}
+
+FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
+                             int samples) {
+  const Shape s = g.shape();
+  if (owners.size() != s.cells())
+    throw std::invalid_argument("force partitioning: cell owners of " + std::to_string(owners.size()) +
+                                " cells for a grid of " + std::to_string(s.cells()));
+  if (samples < 1) throw std::invalid_argument("force partitioning: face samples must be >= 1");
+  FluidGeometry G;
+  G.shape = s;
+  G.parts = parts;
+  for (auto& a : G.aperture) a = Field(s);
+  G.volume_fraction = Field(s);
+  auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1); };
+  // the periodic image of an index along axis a (ghosts 0 and n+1), or -1 outside a walled axis
+  auto image = [&](int a, int I) {
+    const int n = s.n(a);
+    if (I >= 1 && I <= n) return I;
+    if (!g.axis[std::size_t(a)].periodic) return -1;
+    return I < 1 ? I + n : I - n;
+  };
+  // cells within one cell of a solid cell
+  std::vector<char> near(s.cells(), 0);
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        if (owners[flat(i, j, k)] < 0) continue;
+        for (int c = -1; c <= 1; ++c)
+          for (int b = -1; b <= 1; ++b)
+            for (int a = -1; a <= 1; ++a) {
+              const int I = image(0, i + a), J = image(1, j + b), K = image(2, k + c);
+              if (I > 0 && J > 0 && K > 0) near[flat(I, J, K)] = 1;
+            }
+      }
+  std::vector<FaceSolid> solids;
+  for (int d = 0; d < 3; ++d) {
+    const ns::Axis& ad = g.axis[std::size_t(d)];
+    const int e = (d + 1) % 3, f = (d + 2) % 3;
+    const ns::Axis &ae = g.axis[std::size_t(e)], &af = g.axis[std::size_t(f)];
+    Field& ap = G.aperture[std::size_t(d)];
+    for (int k = 1; k <= s.nz + (d == 2); ++k)
+      for (int j = 1; j <= s.ny + (d == 1); ++j)
+        for (int i = 1; i <= s.nx + (d == 0); ++i) {
+          const int I[3] = {i, j, k};
+          if (I[e] > s.n(e) || I[f] > s.n(f)) continue;
+          const int F = I[d];
+          if (F == s.n(d) + 1 || (!ad.periodic && F == 1)) continue;  // the domain's faces (periodic: face 1 below)
+          int L[3] = {i, j, k};
+          L[d] = image(d, F - 1);
+          const bool tested = near[flat(i, j, k)] || near[flat(L[0], L[1], L[2])];
+          if (!tested) {
+            ap(i, j, k) = 1;
+            continue;
+          }
+          const double we = ae.dc[std::size_t(I[e])], wf = af.dc[std::size_t(I[f])];
+          const double h = std::max({we, wf, ad.dc[std::size_t(F)], ad.dc[std::size_t(std::max(F - 1, 1))]});
+          Vec3 centre;
+          centre[d] = ad.xf[std::size_t(F)];
+          centre[e] = ae.xc[std::size_t(I[e])];
+          centre[f] = af.xc[std::size_t(I[f])];
+          const double reach = 0.5 * std::hypot(we, wf);
+          const auto [v, who] = lowest(level, parts, centre, h);
+          if (v > reach) {
+            ap(i, j, k) = 1;
+            continue;
+          }
+          if (v < -reach) {
+            solids.push_back({d, {i, j, k}, who, 1.0, centre});
+            continue;
+          }
+          ++G.sampled_faces;
+          std::vector<int> count(std::size_t(parts), 0);
+          std::vector<Vec3> sum(std::size_t(parts), Vec3::Zero());
+          int fluid = 0;
+          for (int b = 0; b < samples; ++b)
+            for (int a = 0; a < samples; ++a) {
+              Vec3 x = centre;
+              x[e] += ((a + 0.5) / samples - 0.5) * we;
+              x[f] += ((b + 0.5) / samples - 0.5) * wf;
+              const auto [lv, lp] = lowest(level, parts, x, h);
+              if (lv < 0) {
+                ++count[std::size_t(lp)];
+                sum[std::size_t(lp)] += x;
+              } else {
+                ++fluid;
+              }
+            }
+          const double n2 = double(samples) * samples;
+          ap(i, j, k) = fluid / n2;
+          for (int p = 0; p < parts; ++p)
+            if (count[std::size_t(p)] > 0)
+              solids.push_back({d, {i, j, k}, p, count[std::size_t(p)] / n2, sum[std::size_t(p)] / count[std::size_t(p)]});
+        }
+    if (ad.periodic)  // face n+1 is face 1
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const int I[3] = {i, j, k};
+            if (I[d] != 1) continue;
+            int J[3] = {i, j, k};
+            J[d] = s.n(d) + 1;
+            ap(J[0], J[1], J[2]) = ap(i, j, k);
+          }
+  }
+  // fluid volume fraction: the mean aperture of the cell's faces inside the domain
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        double sum = 0;
+        int n = 0;
+        const int I[3] = {i, j, k};
+        for (int d = 0; d < 3; ++d) {
+          const bool per = g.axis[std::size_t(d)].periodic;
+          int U[3] = {i, j, k};
+          ++U[d];
+          if (per || I[d] > 1) sum += G.aperture[std::size_t(d)](i, j, k), ++n;
+          if (per || I[d] < s.n(d)) sum += G.aperture[std::size_t(d)](U[0], U[1], U[2]), ++n;
+        }
+        // a cell whose faces are all on the domain's boundary keeps its centre's status
+        G.volume_fraction(i, j, k) = n > 0 ? sum / n : (owners[flat(i, j, k)] < 0 ? 1.0 : 0.0);
+      }
+  // the surface pieces: each solid share closes the part's solid in the cells on both sides of the face
+  std::unordered_map<std::size_t, std::size_t> index;  // (cell * parts + part) -> cuts
+  std::vector<double> weight;
+  auto add = [&](std::ptrdiff_t cell, int part, const Vec3& area, const Vec3& moment, const Vec3& x, double w) {
+    if (!G.active(cell)) return;
+    const std::size_t key = std::size_t(cell) * std::size_t(parts) + std::size_t(part);
+    auto it = index.find(key);
+    if (it == index.end()) {
+      it = index.emplace(key, G.cuts.size()).first;
+      G.cuts.push_back({cell, part});
+      weight.push_back(0);
+    }
+    auto& c = G.cuts[it->second];
+    c.area += area;
+    c.moment += moment;
+    c.centroid += w * x;
+    weight[it->second] += w;
+  };
+  for (const FaceSolid& fs : solids) {
+    const int d = fs.d, e = (d + 1) % 3, f = (d + 2) % 3;
+    const double A = g.axis[std::size_t(e)].dc[std::size_t(fs.I[e])] * g.axis[std::size_t(f)].dc[std::size_t(fs.I[f])];
+    Vec3 ed = Vec3::Zero();
+    ed[d] = 1;
+    const double sA = fs.fraction * A;
+    // upper cell (this is its lower face, outward normal -e_d): area -= sA (-e_d)
+    add(s(fs.I[0], fs.I[1], fs.I[2]), fs.part, sA * ed, sA * fs.centroid.cross(ed), fs.centroid, sA);
+    int L[3] = {fs.I[0], fs.I[1], fs.I[2]};
+    L[d] = image(d, L[d] - 1);
+    if (L[d] > 0) add(s(L[0], L[1], L[2]), fs.part, -sA * ed, -sA * fs.centroid.cross(ed), fs.centroid, sA);
+  }
+  for (std::size_t c = 0; c < G.cuts.size(); ++c)
+    if (weight[c] > 0) G.cuts[c].centroid /= weight[c];
+  return G;
+}
+
+}  // namespace flapstab::fpm

@@ -1,0 +1,56 @@
+// The fluid region of a CFD grid around immersed parts as cut cells: the open fraction (aperture) of every cell
+// face, each cell's fluid volume fraction, and the piece of each part's surface inside each cell as its area
+// vector and moment (docs/theory/force-partitioning.md, "Discretisation").
+//
+// A face is sampled on an m x m lattice of points where a part's surface may cross it; a point belongs to the part
+// whose level set is negative there (the lowest when several are). The surface inside a cell follows from the
+// divergence theorem applied to the part's solid inside the cell: its faces' solid areas close it, so
+//   int_{surface in c} n dS = - sum_faces s_f A_f n_f,   int_{surface in c} x x n dS = - sum_faces s_f A_f x_f x n_f
+// (s_f the part's solid fraction of face f, n_f the cell's outward face normal, x_f the centroid of the face's
+// solid points, n out of the part into the fluid). Over a closed part these sum to zero exactly, so the Neumann
+// problems of the influence potentials are compatible; on a staircase (apertures 0 or 1) they reduce to the faces
+// between fluid and solid cells.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <functional>
+#include <vector>
+#include "cfd/navier_stokes/field.hpp"
+#include "cfd/navier_stokes/grid.hpp"
+#include "core/types.hpp"
+
+namespace flapstab::fpm {
+
+using ns::Field;
+using ns::Grid;
+using ns::Shape;
+
+// Level set of part `part` at world point x for a face or cell of local width h: negative inside the part.
+using LevelFunction = std::function<double(int part, const Vec3& x, double h)>;
+
+struct FluidGeometry {
+  Shape shape;
+  int parts = 0;
+  std::array<Field, 3> aperture;       // open fraction of face I (lower face of cell I) along d; the domain's faces 0
+  Field volume_fraction;               // fluid fraction of each cell (mean of its six faces' open fractions)
+  struct Cut {
+    std::ptrdiff_t cell;               // Shape index of the cell the surface piece lies in
+    int part;
+    Vec3 area = Vec3::Zero();          // int n dS (m^2), n out of the part
+    Vec3 moment = Vec3::Zero();        // int x x n dS about the grid origin (m^3)
+    Vec3 centroid = Vec3::Zero();      // of the piece (m), for the surface acceleration
+  };
+  std::vector<Cut> cuts;
+  std::size_t sampled_faces = 0;       // faces the lattice sampled (near a surface)
+  bool active(std::ptrdiff_t n) const { return volume_fraction[n] > 0; }
+};
+
+// `owners`: a hint, the part holding each interior cell's centre (x fastest, -1 fluid); faces of the cells within one
+// cell (26-neighbourhood) of a solid cell are tested, the rest are open. `samples`: m of the m x m face lattice.
+FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
+                             int samples = 4);
+
+// The cell owners for an analytic level function (every cell centre evaluated), for tests and small grids.
+std::vector<int> owners_of(const Grid& g, int parts, const LevelFunction& level);
+
+}  // namespace flapstab::fpm
