@@ -239,9 +239,30 @@ Wing parse_wing(Section s) {
 
 AngleSeries parse_angle(Section s, const std::string& name, double default_mean_deg) {
   if (!s.present()) return FourierSeries{default_mean_deg * deg, {}, {}};
-  const std::string type = s.string("type", false, "fourier", {"fourier", "hermite"});
+  const std::string type = s.string("type", false, "fourier", {"fourier", "hermite", "berman-wang"});
   AngleSeries out;
-  if (type == "fourier") {
+  if (type == "berman-wang") {
+    // Berman & Wang (2007, J Fluid Mech 582:153); see core/series.hpp for the three forms.
+    BermanWangSeries b;
+    b.form = name == "stroke" ? BermanWangSeries::Form::stroke
+             : name == "pitch" ? BermanWangSeries::Form::pitch : BermanWangSeries::Form::deviation;
+    b.amplitude = s.number("amplitude_deg", "the amplitude in degrees (half the peak-to-peak excursion)") * deg;
+    b.mean = s.number_or("mean_deg", default_mean_deg, "a number in degrees") * deg;
+    b.phase = s.number_or("phase_deg", 0.0, "a phase in degrees of the wingbeat") * deg;
+    if (b.form == BermanWangSeries::Form::stroke) {
+      const std::string expected = "K in (0, 1) (K -> 0: a cosine, K -> 1: a triangle wave)";
+      b.shape = s.number("shape_k", expected);
+      if (!(b.shape > 0 && b.shape < 1)) s.fail("shape_k", fmt::format("out of range: {:.6g}", b.shape), expected);
+    } else if (b.form == BermanWangSeries::Form::pitch) {
+      const std::string expected = "C in (0, 1000] (C -> 0: a sine, large C: a square wave)";
+      b.shape = s.number("shape_c", expected);
+      if (!(b.shape > 0 && b.shape <= 1000)) s.fail("shape_c", fmt::format("out of range: {:.6g}", b.shape), expected);
+    } else {
+      if (!s.has("harmonic")) s.fail("harmonic", "missing", "the harmonic N of the deviation, an integer in [1, 16]");
+      b.harmonic = s.integer_or("harmonic", 1, 1, 16);
+    }
+    out = b;
+  } else if (type == "fourier") {
     FourierSeries f;
     f.mean = s.number_or("mean_deg", default_mean_deg, "a number in degrees") * deg;
     f.a = s.numbers("cos_deg", "an array of cosine coefficients in degrees", false);
@@ -263,7 +284,6 @@ AngleSeries parse_angle(Section s, const std::string& name, double default_mean_
     out = h;
   }
   s.reject_unknown();
-  (void)name;
   return out;
 }
 
@@ -390,7 +410,10 @@ std::string TrimParameterSpec::label() const {
 const std::vector<std::string>& trim_parameter_names() {
   static const std::vector<std::string> names = {
       "frequency_hz",       "stroke_amplitude_deg", "stroke_mean_deg",  "pitch_mean_deg",
-      "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg"};
+      "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg",
+      // Parameters of the Berman & Wang (2007) angle forms (type = "berman-wang" only, but deviation_amplitude_deg
+      // also scales an oscillating Fourier or Hermite deviation).
+      "stroke_shape_k", "pitch_shape_c", "pitch_phase_deg", "deviation_amplitude_deg", "deviation_phase_deg"};
   return names;
 }
 

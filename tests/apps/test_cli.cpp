@@ -111,8 +111,24 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{"negative_mass", "mass_kg = 47e-6", "mass_kg = -47e-6", "wing.mass_kg"},
         Bad{"nan", "length_m = 0.0519", "length_m = nan", "wing.length_m"},
         Bad{"unknown_trim_parameter", "name = \"stroke_mean_deg\"", "name = \"stroke_offset_deg\"",
-            "trim.parameter[1].name"}),
+            "trim.parameter[1].name"},
+        // Berman & Wang (2007) angle forms: K must lie in (0, 1), C be positive, the amplitude be given.
+        Bad{"berman_wang_k_one", "cos_deg = [-60.0]\nsin_deg = [0.0]",
+            "type = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 1.0", "kinematics.stroke.shape_k"},
+        Bad{"berman_wang_c_zero", "cos_deg = [0.0]\nsin_deg = [-55.0]",
+            "type = \"berman-wang\"\namplitude_deg = -55.0\nshape_c = 0.0", "kinematics.pitch.shape_c"},
+        Bad{"berman_wang_no_amplitude", "cos_deg = [0.0]\nsin_deg = [-55.0]", "type = \"berman-wang\"\nshape_c = 2.0",
+            "kinematics.pitch.amplitude_deg"}),
     [](const ::testing::TestParamInfo<Bad>& i) { return std::string(i.param.label); });
+
+// Bad input exits with status 2 (docs/user-guide.md), here for a Berman-Wang K >= 1.
+TEST(CliStatus, BermanWangShapeOutOfRangeIsBadInput) {
+  const std::string path = write_temp("cli_bw_status.toml", replace(valid_case_text(), "cos_deg = [-60.0]\nsin_deg = [0.0]",
+                                                                    "type = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 1.5"));
+  const CliRun r = flapstab("trim-hover " + path);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("kinematics.stroke.shape_k"), std::string::npos) << r.err;
+}
 
 // Infeasible trim: the stroke amplitude may not exceed 62 deg, far below what weight support needs.
 TEST(Cli, InfeasibleTrimFailsWithoutOutput) {

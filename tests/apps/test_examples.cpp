@@ -77,6 +77,17 @@ TEST(Examples, HermiteKinematicsTrimLikeTheirFourierSeries) {
         << f["trim"]["parameters"][i]["name"];
 }
 
+TEST(Examples, BermanWangAnglesTrimThroughTheirShape) {
+  // The stroke's K balances the weight (with the stroke and pitch means); the trimmed kinematics keep their form.
+  const nlohmann::json j = analyze("berman_wang_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+  EXPECT_EQ(j["trim"]["parameters"][0]["name"], "stroke_shape_k");
+  const nlohmann::json& stroke = j["trim"]["kinematics"]["right"]["stroke"];
+  EXPECT_EQ(stroke["type"], "berman-wang");
+  EXPECT_NEAR(double(stroke["shape_k"]), double(j["trim"]["parameters"][0]["value"]), 1e-12);
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

@@ -1,5 +1,7 @@
 // Tests for core/case_file: a valid case loads; each kind of bad input names the file and the key.
 #include <gtest/gtest.h>
+#include <array>
+#include <vector>
 #include "common/expect_error.hpp"
 #include "common/case_text.hpp"
 #include "core/case_file.hpp"
@@ -101,6 +103,64 @@ TEST(CaseFile, AbsurdValuesArePrintedShortInMessages) {
   EXPECT_NE(m.find("1e-300"), std::string::npos) << m;
   EXPECT_LT(m.size(), 400u) << m;
   EXPECT_NE(m.find("physically sensible"), std::string::npos) << m;
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// The valid case with Berman & Wang (2007, J Fluid Mech 582:153) angle forms instead of Fourier series.
+std::string berman_wang_case_text() {
+  std::string t = testing::valid_case_text();
+  t = testing::replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
+                       "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\n"
+                       "phase_deg = 180.0\n");
+  t = testing::replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
+                       "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\n"
+                       "shape_c = 2.4\n[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 4.0\n"
+                       "harmonic = 2\n");
+  return t;
+}
+
+TEST(CaseFile, BermanWangAnglesLoad) {
+  const Case c = load_case(testing::write_temp("bw.toml", berman_wang_case_text()));
+  const BermanWangSeries* s = c.kinematics.right.stroke.berman_wang();
+  const BermanWangSeries* p = c.kinematics.right.pitch.berman_wang();
+  const BermanWangSeries* d = c.kinematics.right.deviation.berman_wang();
+  ASSERT_TRUE(s && p && d);
+  EXPECT_EQ(s->form, BermanWangSeries::Form::stroke);
+  EXPECT_DOUBLE_EQ(s->shape, 0.7);
+  EXPECT_DOUBLE_EQ(p->shape, 2.4);
+  EXPECT_EQ(d->harmonic, 2);
+  EXPECT_NEAR(c.kinematics.stroke_amplitude() / deg, 120.0, 1e-6);
+  // phase 180 deg: the stroke starts at -phi_m (downstroke first, as the Fourier case).
+  EXPECT_NEAR(c.kinematics.right.stroke.eval(0).f / deg, -60.0, 1e-12);
+  EXPECT_NEAR(c.kinematics.right.pitch.eval(0.25).f / deg, 35.0, 1e-12);
+  EXPECT_TRUE(c.kinematics.symmetric());
+}
+
+TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
+  const std::string base = berman_wang_case_text();
+  const std::vector<std::array<const char*, 3>> bad = {
+      {"shape_k = 0.7", "shape_k = 1.0", "kinematics.stroke.shape_k"},
+      {"shape_k = 0.7", "shape_k = 0.0", "kinematics.stroke.shape_k"},
+      {"shape_k = 0.7\n", "", "kinematics.stroke.shape_k"},
+      {"shape_c = 2.4", "shape_c = 0.0", "kinematics.pitch.shape_c"},
+      {"shape_c = 2.4", "shape_c = -1.0", "kinematics.pitch.shape_c"},
+      {"amplitude_deg = 60.0\n", "", "kinematics.stroke.amplitude_deg"},
+      {"harmonic = 2\n", "", "kinematics.deviation.harmonic"},
+      {"harmonic = 2", "harmonic = 0", "kinematics.deviation.harmonic"},
+      {"shape_k = 0.7", "shape_c = 0.7", "kinematics.stroke.shape_k"},  // the pitch's key on the stroke
+      {"harmonic = 2", "harmonic = 2\nshape_k = 0.5", "kinematics.deviation.shape_k"},
+  };
+  int i = 0;
+  for (const auto& [from, to, key] : bad) {
+    const std::string path = testing::write_temp("bw_bad" + std::to_string(i++) + ".toml", testing::replace(base, from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
 }
 
 }  // namespace
