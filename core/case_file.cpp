@@ -453,6 +453,13 @@ Case load_case(const std::string& path) {
   c.fluid.kinematic_viscosity = fluid.positive_or("kinematic_viscosity_m2_s", 1.5e-5, "m^2/s");
   fluid.reject_unknown();
 
+  // [environment]: gravity where the insect flies (weight in the trim, the equations of motion, the derivatives'
+  // gravity terms, free flight). From Pluto's surface (0.62) and the Moon (1.62) to a 10 g centrifuge; outside
+  // that range a value is a unit error.
+  Section env = top.sub("environment", false);
+  c.insect.gravity = env.positive_in("gravity_m_s2", standard_gravity, 0.1, 100.0, "an acceleration in m/s^2");
+  env.reject_unknown();
+
   Section aero = top.sub("aero", false);
   c.aero.model = aero.string("model", false, "quasi-steady", {"quasi-steady", "cfd"});
   Section qs = aero.sub("quasi_steady", false);

@@ -5,6 +5,7 @@
 // x along the chord towards the leading edge (origin on the pitch axis), y along the span towards the
 // tip, z = x cross y (ventral for the right wing at rest). The left wing is the mirror image.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 #include "core/types.hpp"
@@ -48,8 +49,11 @@ struct Insect {
   std::string name;
   Body body;
   Wing wing;
+  // Gravitational acceleration where it flies (m/s^2; [environment] gravity_m_s2). Kept with the insect because
+  // everything that weighs it (trim, equations of motion, derivatives, free flight) already takes the insect.
+  double gravity = standard_gravity;
   double total_mass() const { return body.mass + 2 * wing.mass; }
-  double weight(double g = standard_gravity) const { return total_mass() * g; }
+  double weight() const { return total_mass() * gravity; }
 };
 
 }  // namespace flapstab

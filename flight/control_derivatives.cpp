@@ -10,7 +10,9 @@ namespace flapstab {
 
 ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& trimmed,
                                             const std::vector<TrimParameterSpec>& parameters,
-                                            const ReferenceQuantities& ref, double g, const AeroRunOptions& run) {
+                                            const ReferenceQuantities& ref, std::optional<double> g_given,
+                                            const AeroRunOptions& run) {
+  const double g = g_given.value_or(insect.gravity);
   const TrimParameterization par(trimmed, parameters, "");
   const Vec3 o_trim = Configuration(insect, trimmed).reference_point();
   const double mg = insect.total_mass() * g;

@@ -1,6 +1,9 @@
 // End-to-end tests of the flapstab command: outputs, JSON keys, and bad input (message naming file and
 // key, non-zero exit status, no output file).
 #include <gtest/gtest.h>
+#include <algorithm>
+#include <cmath>
+#include <complex>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -120,6 +123,37 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{"berman_wang_no_amplitude", "cos_deg = [0.0]\nsin_deg = [-55.0]", "type = \"berman-wang\"\nshape_c = 2.0",
             "kinematics.pitch.amplitude_deg"}),
     [](const ::testing::TestParamInfo<Bad>& i) { return std::string(i.param.label); });
+
+// Gravity enters the weight, the equations of motion and the non-dimensional g+. With g doubled and the trim moving
+// the frequency, the quasi-steady hover is the same flight at sqrt(2) times the speed: loads ~ n^2 at fixed angles,
+// so time scales by 1/sqrt(2) and every eigenvalue (1/s) by sqrt(2) exactly (dimensional similarity; 1e-6
+// relative covers the trim tolerance and the derivatives' central differences, which scale with U).
+TEST(Cli, DoubledGravityScalesTheEigenvaluesBySqrtTwo) {
+  const std::string base = replace(replace(valid_case_text(), "name = \"stroke_amplitude_deg\"\nlower = 60.0\nupper = 170.0",
+                                           "name = \"frequency_hz\"\nlower = 10.0\nupper = 80.0"),
+                                   "[fluid]\n", "[environment]\ngravity_m_s2 = G\n\n[fluid]\n");
+  auto eigenvalues = [&](const std::string& g) {
+    const std::string path = write_temp("cli_gravity_" + g + ".toml", replace(base, "gravity_m_s2 = G", "gravity_m_s2 = " + g));
+    const fs::path dir = fs::path(path).parent_path() / ("cli_gravity_dir_" + g);
+    fs::remove_all(dir);
+    const CliRun r = flapstab("stability " + path + " -q -o " + dir.string());
+    EXPECT_EQ(r.status, 0) << r.err;
+    std::vector<std::complex<double>> out;
+    const auto j = read_json((dir / "stability.json").string()).at("stability");
+    EXPECT_NEAR(j.at("reference").at("g").get<double>(), std::stod(g), 1e-12);
+    for (const auto& m : j.at("longitudinal").at("modes")) {
+      const auto& e = m.at("eigenvalue_per_s");
+      out.emplace_back(e[0].get<double>(), e[1].get<double>());
+    }
+    std::sort(out.begin(), out.end(), [](auto a, auto b) { return a.real() < b.real() || (a.real() == b.real() && a.imag() < b.imag()); });
+    return out;
+  };
+  const auto one = eigenvalues("9.80665"), two = eigenvalues("19.6133");
+  ASSERT_EQ(one.size(), two.size());
+  ASSERT_FALSE(one.empty());
+  for (std::size_t i = 0; i < one.size(); ++i)
+    EXPECT_LT(std::abs(two[i] - std::sqrt(2.0) * one[i]), 1e-6 * std::abs(two[i])) << two[i] << " vs sqrt 2 x " << one[i];
+}
 
 // Bad input exits with status 2 (docs/user-guide.md), here for a Berman-Wang K >= 1.
 TEST(CliStatus, BermanWangShapeOutOfRangeIsBadInput) {

@@ -1,6 +1,7 @@
 // The example cases in data/examples/ (one per feature, listed in docs/user-guide.md "Examples"): each runs as its
 // header says, and the guide lists every one of them.
 #include <gtest/gtest.h>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -86,6 +87,25 @@ TEST(Examples, BermanWangAnglesTrimThroughTheirShape) {
   const nlohmann::json& stroke = j["trim"]["kinematics"]["right"]["stroke"];
   EXPECT_EQ(stroke["type"], "berman-wang");
   EXPECT_NEAR(double(stroke["shape_k"]), double(j["trim"]["parameters"][0]["value"]), 1e-12);
+}
+
+TEST(Examples, MarsGravityTrimsAtTheScaledFrequency) {
+  // Quasi-steady loads scale as n^2 at fixed angles, so the trimmed frequency scales as sqrt(g): the same case
+  // without [environment] (standard gravity) must trim at sqrt(9.80665 / 3.71) times the frequency, with the same
+  // means (analytic similarity; 1e-8 relative, the trim tolerance).
+  const nlohmann::json mars = analyze("mars_gravity_hawkmoth.toml");
+  std::string text = slurp(source + "/data/examples/mars_gravity_hawkmoth.toml");
+  const std::string env = "[environment]\ngravity_m_s2 = 3.71";
+  ASSERT_NE(text.find(env), std::string::npos);
+  text.replace(text.find(env), env.size(), "");
+  const nlohmann::json earth = trim(testing::write_temp("earth_gravity_hawkmoth.toml", text));
+  ASSERT_FALSE(mars.is_null() || earth.is_null());
+  const auto& pm = mars["trim"]["parameters"];
+  const auto& pe = earth["trim"]["parameters"];
+  EXPECT_EQ(pm[0]["name"], "frequency_hz");
+  EXPECT_NEAR(double(pe[0]["value"]) / double(pm[0]["value"]), std::sqrt(9.80665 / 3.71), 1e-8);
+  EXPECT_NEAR(double(pe[1]["value"]), double(pm[1]["value"]), 1e-6);
+  EXPECT_NEAR(double(pe[2]["value"]), double(pm[2]["value"]), 1e-6);
 }
 
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {

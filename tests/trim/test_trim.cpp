@@ -1,5 +1,6 @@
 // Tests for trim/: the cycle-averaged hover trim (Ipopt and NLopt), its parameters and its failures.
 #include <gtest/gtest.h>
+#include <cmath>
 #include <vector>
 #include "cfd/aero_factory.hpp"
 #include "common/case_text.hpp"
@@ -186,6 +187,45 @@ upper = 120.0
   EXPECT_LT(t.relative_force_residual, 1e-8);
   EXPECT_LT(t.relative_moment_residual, 1e-8);
   EXPECT_NE(t.parameters[0].value, 0.7);
+}
+
+// [environment] gravity_m_s2: doubling gravity doubles the weight the trim balances. Every quasi-steady load at fixed
+// wing angles scales as the frequency squared (translational ~ U^2, rotational ~ alphadot U, added mass ~ dU/dt; the
+// body at rest), so the trim through the frequency (with the stroke and pitch means) must land on sqrt(2) times the
+// frequency with the same means - to the trim's tolerance (analytic similarity; 1e-8 relative here).
+TEST(Trim, DoubledGravityNeedsTheWeightDoublingForce) {
+  const std::string base = replace(replace(valid_case_text(), "name = \"stroke_amplitude_deg\"\nlower = 60.0\nupper = 170.0",
+                                           "name = \"frequency_hz\"\nlower = 10.0\nupper = 80.0"),
+                                   "[fluid]\n", "[environment]\ngravity_m_s2 = G\n\n[fluid]\n");
+  auto trimmed = [&](const std::string& g) {
+    const Case c = load_case(write_temp("gravity_" + g + ".toml", replace(base, "gravity_m_s2 = G", "gravity_m_s2 = " + g)));
+    const auto model = make_aero_model(c);
+    const TrimResult t = trim_hover(c, *model);
+    EXPECT_TRUE(t.converged) << t.message;
+    return t;
+  };
+  const TrimResult one = trimmed("9.80665"), two = trimmed("19.6133");
+  ASSERT_EQ(one.parameters[0].name, "frequency_hz");
+  EXPECT_NEAR(two.weight, 2 * one.weight, 1e-15 * two.weight);
+  EXPECT_NEAR(two.parameters[0].value / one.parameters[0].value, std::sqrt(2.0), 1e-8);
+  EXPECT_NEAR(two.parameters[1].value, one.parameters[1].value, 1e-6);  // stroke mean, deg
+  EXPECT_NEAR(two.parameters[2].value, one.parameters[2].value, 1e-6);  // pitch mean, deg
+  EXPECT_LT(two.relative_force_residual, 1e-8);
+}
+
+TEST(Trim, GravityOutsideItsRangeIsAnInputError) {
+  for (const char* g : {"0.0", "-9.8", "9806.65"}) {
+    const std::string path = write_temp("gravity_bad.toml", replace(valid_case_text(), "[fluid]\n",
+                                                                     std::string("[environment]\ngravity_m_s2 = ") + g +
+                                                                         "\n[fluid]\n"));
+    try {
+      load_case(path);
+      ADD_FAILURE() << "gravity " << g << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.key(), "environment.gravity_m_s2");
+      EXPECT_EQ(e.file(), path);
+    }
+  }
 }
 
 }  // namespace
