@@ -34,6 +34,32 @@ std::optional<SensibleRange> sensible_range(const std::string& unit) {
   return std::nullopt;
 }
 
+// Minimum of p(x) = sum_k a[k] x^k over [0, 1]: at an end or at a real root of p' inside (the eigenvalues of p''s
+// companion matrix).
+double polynomial_minimum_on_unit_interval(const std::vector<double>& a) {
+  auto p = [&](double x) {
+    double v = 0;
+    for (auto k = a.rbegin(); k != a.rend(); ++k) v = v * x + *k;
+    return v;
+  };
+  double lowest = std::min(p(0.0), p(1.0));
+  std::vector<double> d;  // p' coefficients, trailing zeros dropped
+  for (std::size_t k = 1; k < a.size(); ++k) d.push_back(double(k) * a[k]);
+  while (!d.empty() && d.back() == 0) d.pop_back();
+  if (d.size() >= 2) {
+    const Eigen::Index n = Eigen::Index(d.size()) - 1;
+    Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(n, n);
+    for (Eigen::Index i = 1; i < n; ++i) companion(i, i - 1) = 1;
+    for (Eigen::Index i = 0; i < n; ++i) companion(i, n - 1) = -d[std::size_t(i)] / d.back();
+    const Eigen::VectorXcd roots = Eigen::EigenSolver<Eigen::MatrixXd>(companion, false).eigenvalues();
+    for (const auto& z : roots)
+      if (std::abs(z.imag()) < 1e-8 && z.real() > 0 && z.real() < 1) lowest = std::min(lowest, p(z.real()));
+  }
+  // A dense sample as well: a double root of p' (an inflection) is found above only to the eigenvalue accuracy.
+  for (int i = 1; i < 1000; ++i) lowest = std::min(lowest, p(i / 1000.0));
+  return lowest;
+}
+
 class Section {
  public:
   Section(const toml::table* t, std::string file, std::string path)
@@ -186,8 +212,28 @@ Wing parse_wing(Section s) {
   Wing w;
   w.length = s.positive("length_m", "m");
   w.mean_chord = s.positive("mean_chord_m", "m");
-  const std::string pf = s.string("planform", false, "elliptic", {"elliptic", "rectangular", "tabulated"});
-  w.planform = pf == "elliptic" ? Planform::elliptic : pf == "rectangular" ? Planform::rectangular : Planform::tabulated;
+  const std::string pf =
+      s.string("planform", false, "elliptic", {"elliptic", "rectangular", "tabulated", "polynomial"});
+  w.planform = pf == "elliptic"      ? Planform::elliptic
+               : pf == "rectangular" ? Planform::rectangular
+               : pf == "tabulated"   ? Planform::tabulated
+                                     : Planform::polynomial;
+  if (w.planform == Planform::polynomial) {
+    const std::string expected = "coefficients a_k of c(r) = sum_k a_k (r/R)^k, k = 0..n (n <= 20), c >= 0 on [0, 1]";
+    w.poly = s.numbers("chord_coefficients", expected, true);
+    if (w.poly.empty() || w.poly.size() > 21) s.fail("chord_coefficients", "needs 1 to 21 coefficients", expected);
+    // Normalise so that the mean chord is exactly mean_chord_m (area = mean_chord_m R): int_0^1 sum a_k x^k = sum a_k/(k+1).
+    double area = 0;
+    for (std::size_t k = 0; k < w.poly.size(); ++k) area += w.poly[k] / double(k + 1);
+    if (!(area > 0)) s.fail("chord_coefficients", fmt::format("encloses no area (integral {:.6g})", area), expected);
+    for (double& a : w.poly) a /= area;
+    const double lowest = polynomial_minimum_on_unit_interval(w.poly);
+    if (lowest < -1e-12)
+      s.fail("chord_coefficients",
+             fmt::format("gives a negative chord on [0, 1] (c/c_bar = {:.6g} at its minimum)", lowest), expected);
+  } else if (s.has("chord_coefficients")) {
+    s.fail("chord_coefficients", "given for planform \"" + pf + "\"", "planform = \"polynomial\"");
+  }
   if (w.planform == Planform::tabulated) {
     w.table_r = s.numbers("r_over_R", "an increasing array of r/R in [0, 1]", true);
     w.table_c = s.numbers("chord_over_mean", "an array of c/c_bar >= 0, as long as r_over_R", true);

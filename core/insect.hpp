@@ -23,13 +23,14 @@ struct Body {
   Mat3 ellipsoid_inertia() const;
 };
 
-enum class Planform { elliptic, rectangular, tabulated };
+enum class Planform { elliptic, rectangular, tabulated, polynomial };
 
 struct Wing {
   double length = 0;        // R (m), hinge to tip
   double mean_chord = 0;    // c_bar (m) = area / R
   Planform planform = Planform::elliptic;
   std::vector<double> table_r, table_c;  // tabulated: r/R in [0,1] and c/c_bar, increasing r
+  std::vector<double> poly;              // polynomial: c/c_bar = sum_k poly[k] (r/R)^k, normalised to unit mean
   double pitch_axis = 0.25;  // x0: pitch axis position from the leading edge, fraction of local chord
   double mass = 0;           // kg, one wing
   Vec3 mass_centre = Vec3::Zero();    // wing frame, m (about the hinge)

@@ -108,6 +108,18 @@ TEST(Examples, MarsGravityTrimsAtTheScaledFrequency) {
   EXPECT_NEAR(double(pe[2]["value"]), double(pm[2]["value"]), 1e-6);
 }
 
+TEST(Examples, PolynomialPlanformSetsTheReferenceSpeed) {
+  // c ~ 1 + x - 1.8 x^2 (x = r/R): r2^2 / R^2 = (1/3 + 1/4 - 1.8/5) / (1 + 1/2 - 1.8/3) exactly, and the reference
+  // speed is U = 2 Phi n r2 (Phi the trimmed amplitude in rad) - to round-off (1e-12).
+  const nlohmann::json j = analyze("polynomial_planform_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+  const double r2 = std::sqrt((1.0 / 3 + 1.0 / 4 - 1.8 / 5) / (1 + 1.0 / 2 - 1.8 / 3)) * 0.0519;
+  const double phi = double(j["trim"]["parameters"][0]["value"]) * 3.14159265358979323846 / 180;
+  EXPECT_EQ(j["trim"]["parameters"][0]["name"], "stroke_amplitude_deg");
+  EXPECT_NEAR(double(j["derivatives"]["reference"]["U_m_s"]), 2 * phi * 26.1 * r2, 1e-12 * 2 * phi * 26.1 * r2);
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

@@ -400,6 +400,45 @@ TEST(QuasiSteadyBodyMotion, BodyDragOnProjectedEllipses) {
   EXPECT_LT(s.body.force.x(), 0);
 }
 
+// Polynomial planforms: the constant polynomial is the rectangle, chord for chord, so the loads are identical (bit
+// for bit: the same quadrature nodes, the same chords). A linear polynomial is a two-point table exactly: loads
+// equal to round-off (1e-13 of the peak force; the chords differ only in the last bits).
+TEST(QuasiSteadyPlanform, PolynomialReproducesRectangularAndLinearTable) {
+  const Kinematics kin = kinematics(hover_wing(), hover_wing(70, 0.1));
+  BodyMotion m;
+  m.velocity = Vec3(0.2, -0.1, 0.3);
+  m.rate = Vec3(1, 3, -2);
+  for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+    Insect rect = test_insect(Planform::rectangular, 0.3, 0.5), poly = rect;
+    poly.wing.planform = Planform::polynomial;
+    poly.wing.poly = {1.0};
+    const WrenchHistory a = model(set).run(rect, kin, m, {}), b = model(set).run(poly, kin, m, {});
+    ASSERT_EQ(a.samples.size(), b.samples.size());
+    for (std::size_t k = 0; k < a.samples.size(); ++k) {
+      const Wrench wa = a.samples[k].total(), wb = b.samples[k].total();
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_EQ(wa.force(i), wb.force(i));
+        EXPECT_EQ(wa.moment(i), wb.moment(i));
+      }
+      EXPECT_EQ(a.samples[k].power, b.samples[k].power);
+    }
+    // Linear taper from 1.6 c_bar at the root to 0.4 c_bar at the tip, as a polynomial and as a table.
+    Insect table = rect, linear = rect;
+    table.wing.planform = Planform::tabulated;
+    table.wing.table_r = {0.0, 1.0};
+    table.wing.table_c = {1.6, 0.4};
+    linear.wing.planform = Planform::polynomial;
+    linear.wing.poly = {1.6, -1.2};
+    const WrenchHistory t = model(set).run(table, kin, m, {}), l = model(set).run(linear, kin, m, {});
+    double peak = 0;
+    for (const auto& s : t.samples) peak = std::max(peak, s.total().force.norm());
+    for (std::size_t k = 0; k < t.samples.size(); ++k) {
+      EXPECT_LT((t.samples[k].total().force - l.samples[k].total().force).norm(), 1e-13 * peak);
+      EXPECT_LT((t.samples[k].total().moment - l.samples[k].total().moment).norm(), 1e-13 * peak * R);
+    }
+  }
+}
+
 TEST(QuasiSteadyModel, NameAndSampling) {
   EXPECT_EQ(model(CoefficientSet::robofly).name(), "quasi-steady (robofly)");
   EXPECT_EQ(model(CoefficientSet::berman_wang).name(), "quasi-steady (berman-wang)");

@@ -124,6 +124,33 @@ std::string berman_wang_case_text() {
   return t;
 }
 
+TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
+  const std::string poly = "planform = \"polynomial\"\nchord_coefficients = [1.0, -0.5]";
+  const Case c = load_case(testing::write_temp("poly.toml", testing::replace(testing::valid_case_text(),
+                                                                               "planform = \"elliptic\"", poly)));
+  // 1 - x/2 has mean 3/4: normalised to (4/3)(1 - x/2), so that the area is mean_chord_m x R.
+  ASSERT_EQ(c.insect.wing.poly.size(), 2u);
+  EXPECT_NEAR(c.insect.wing.poly[0], 4.0 / 3.0, 1e-15);
+  EXPECT_NEAR(c.insect.wing.poly[1], -2.0 / 3.0, 1e-15);
+  const std::vector<std::array<const char*, 3>> bad = {
+      // 0.2 - x + x^2 dips to -0.05 at x = 1/2 although its area is positive
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [0.2, -1.0, 1.0]", "wing.chord_coefficients"},
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [1.0, -3.0]", "wing.chord_coefficients"},
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = []", "wing.chord_coefficients"},
+      {"\nchord_coefficients = [1.0, -0.5]", "", "wing.chord_coefficients"},
+      {"planform = \"polynomial\"", "planform = \"elliptic\"", "wing.chord_coefficients"},
+  };
+  int i = 0;
+  for (const auto& [from, to, key] : bad) {
+    const std::string path = testing::write_temp("poly_bad" + std::to_string(i++) + ".toml",
+                                                 testing::replace(testing::replace(testing::valid_case_text(),
+                                                                                   "planform = \"elliptic\"", poly),
+                                                                  from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
 TEST(CaseFile, BermanWangAnglesLoad) {
   const Case c = load_case(testing::write_temp("bw.toml", berman_wang_case_text()));
   const BermanWangSeries* s = c.kinematics.right.stroke.berman_wang();
