@@ -386,6 +386,72 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   return k;
 }
 
+// [aero.quasi_steady] constants of the translational coefficient sets (docs/theory/quasi-steady.md section 3):
+// each set's own sub-table, refused for another set; the rotational coefficient and the centre of pressure.
+void parse_coefficient_constants(Section& qs, QuasiSteadySettings& q) {
+  for (const char* set : {"robofly", "berman-wang", "table"})
+    if (qs.has(set) && q.coefficients != set)
+      qs.fail(set, "given for coefficients = \"" + q.coefficients + "\"", std::string("coefficients = \"") + set + "\"");
+  auto& k = q.constants;
+  Section r = qs.sub("robofly", false);
+  auto num = [](Section& s, const char* key, double& v) { v = s.number_or(key, v, "a number"); };
+  num(r, "lift_mean", k.robofly.lift_mean);
+  num(r, "lift_amplitude", k.robofly.lift_amplitude);
+  num(r, "lift_rate", k.robofly.lift_rate);
+  num(r, "lift_offset_deg", k.robofly.lift_offset_deg);
+  num(r, "drag_mean", k.robofly.drag_mean);
+  num(r, "drag_amplitude", k.robofly.drag_amplitude);
+  num(r, "drag_rate", k.robofly.drag_rate);
+  num(r, "drag_offset_deg", k.robofly.drag_offset_deg);
+  r.reject_unknown();
+  if (r.present()) {
+    // A drag coefficient below zero somewhere in [0, 90] deg would push the wing along the flow.
+    for (int a = 0; a <= 900; ++a) {
+      const double d = k.robofly.drag_mean -
+                       k.robofly.drag_amplitude * std::cos((k.robofly.drag_rate * a / 10.0 - k.robofly.drag_offset_deg) * deg);
+      if (d < 0)
+        r.fail("drag_mean", fmt::format("gives C_D = {:.4g} < 0 at alpha = {:g} deg", d, a / 10.0),
+               "constants whose C_D(alpha) >= 0 on [0, 90] deg");
+    }
+  }
+  Section b = qs.sub("berman-wang", false);
+  auto coefficient = [](Section& s, const char* key, double& v, double lo, const char* what) {
+    const std::string expected = fmt::format("{} in [{:g}, 10]", what, lo);
+    v = s.number_or(key, v, expected);
+    if (!(v >= lo && v <= 10)) s.fail(key, fmt::format("out of range: {:.6g}", v), expected);
+  };
+  coefficient(b, "c_t", k.berman_wang.c_t, 0, "C_T");
+  coefficient(b, "c_d_0", k.berman_wang.c_d_0, 0, "C_D(0)");
+  coefficient(b, "c_d_90", k.berman_wang.c_d_90, 0, "C_D(pi/2)");
+  b.reject_unknown();
+  Section t = qs.sub("table", q.coefficients == "table");
+  if (t.present()) {
+    const std::string ea = "angles of attack in deg, strictly increasing from 0 to 90, at least 4";
+    k.table.alpha_deg = t.numbers("alpha_deg", ea, true);
+    k.table.lift = t.numbers("lift", "C_L at each alpha_deg", true);
+    k.table.drag = t.numbers("drag", "C_D >= 0 at each alpha_deg", true);
+    const auto& al = k.table.alpha_deg;
+    if (al.size() < 4) t.fail("alpha_deg", fmt::format("has {} points", al.size()), ea);
+    if (al.front() != 0 || al.back() != 90) t.fail("alpha_deg", "does not run from 0 to 90", ea);
+    for (std::size_t i = 1; i < al.size(); ++i)
+      if (!(al[i] > al[i - 1])) t.fail("alpha_deg", "not strictly increasing", ea);
+    if (k.table.lift.size() != al.size()) t.fail("lift", "length differs from alpha_deg", "C_L at each alpha_deg");
+    if (k.table.drag.size() != al.size()) t.fail("drag", "length differs from alpha_deg", "C_D >= 0 at each alpha_deg");
+    for (double d : k.table.drag)
+      if (d < 0) t.fail("drag", fmt::format("negative value {:.6g}", d), "C_D >= 0 at each alpha_deg");
+  }
+  t.reject_unknown();
+  if (qs.has("rotational_coefficient")) {
+    const std::string expected = "C_R in [-10, 10] (thin-aerofoil theory: pi (3/4 - x0))";
+    const double v = qs.number("rotational_coefficient", expected);
+    if (!(v >= -10 && v <= 10)) qs.fail("rotational_coefficient", fmt::format("out of range: {:.6g}", v), expected);
+    q.rotational_coefficient = v;
+  }
+  q.centre_of_pressure = qs.number_or("centre_of_pressure_chord_fraction", 0.25, "a fraction of chord in [0, 1]");
+  if (!(q.centre_of_pressure >= 0 && q.centre_of_pressure <= 1))
+    qs.fail("centre_of_pressure_chord_fraction", "outside [0, 1]", "a fraction of chord from the leading edge in [0, 1]");
+}
+
 CfdSettings parse_cfd(Section s) {
   CfdSettings d;
   auto margin = [&](const char* k, double dflt) {
@@ -510,7 +576,8 @@ Case load_case(const std::string& path) {
   c.aero.model = aero.string("model", false, "quasi-steady", {"quasi-steady", "cfd"});
   Section qs = aero.sub("quasi_steady", false);
   auto& q = c.aero.quasi_steady;
-  q.coefficients = qs.string("coefficients", false, "robofly", {"robofly", "berman-wang"});
+  q.coefficients = qs.string("coefficients", false, "robofly", {"robofly", "berman-wang", "table"});
+  parse_coefficient_constants(qs, q);
   q.blade_elements = qs.integer_or("blade_elements", 40, 2, 10000);
   q.rotational = qs.boolean_or("rotational", true);
   q.added_mass = qs.boolean_or("added_mass", true);

@@ -120,6 +120,30 @@ TEST(Examples, PolynomialPlanformSetsTheReferenceSpeed) {
   EXPECT_NEAR(double(j["derivatives"]["reference"]["U_m_s"]), 2 * phi * 26.1 * r2, 1e-12 * 2 * phi * 26.1 * r2);
 }
 
+TEST(Examples, CoefficientTableTrimsLikeTheSetItSamples) {
+  // The table samples the Berman-Wang forms every 10 deg: the clamped spline's error is at most h^4 max|f^(4)| / 27 =
+  // (10 deg)^4 x 16 x 1.678 / 27 = 9e-4, a relative lift error of 5e-4 at most, which moves the trimmed amplitude
+  // (Phi ~ C_L^(-1/2)) by at most 120 deg x 2.7e-4 = 0.03 deg: 0.05 deg stated for every parameter.
+  const nlohmann::json t = analyze("coefficient_table_hawkmoth.toml");
+  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
+  const std::string set = "coefficients = \"robofly\"";
+  ASSERT_NE(text.find(set), std::string::npos);
+  text.replace(text.find(set), set.size(), "coefficients = \"berman-wang\"");
+  const nlohmann::json b = trim(testing::write_temp("hawkmoth_berman_wang_set.toml", text));
+  ASSERT_FALSE(t.is_null() || b.is_null());
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_NEAR(double(t["trim"]["parameters"][i]["value"]), double(b["trim"]["parameters"][i]["value"]), 0.05)
+        << b["trim"]["parameters"][i]["name"];
+}
+
+TEST(Examples, PublishedRoboflyConstantsGiveTheDefaultTrimBitForBit) {
+  const nlohmann::json c = trim(source + "/data/examples/robofly_constants_hawkmoth.toml");
+  const nlohmann::json h = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(c.is_null() || h.is_null());
+  EXPECT_EQ(c["trim"]["parameters"], h["trim"]["parameters"]);
+  EXPECT_EQ(c["trim"]["residuals"], h["trim"]["residuals"]);
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

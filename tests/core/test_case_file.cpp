@@ -192,3 +192,53 @@ TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// [aero.quasi_steady] constants: each set's sub-table only with that set, ranges, tables from 0 to 90 deg.
+TEST(CaseFile, QuasiSteadyConstantsBadInputNamesFileAndKey) {
+  const std::string base = testing::valid_case_text();
+  const std::string table = testing::replace(base, "coefficients = \"robofly\"\nblade_elements = 40\n",
+                                             "coefficients = \"table\"\nblade_elements = 40\n[aero.quasi_steady.table]\n"
+                                             "alpha_deg = [0.0, 30.0, 60.0, 90.0]\nlift = [0.0, 1.4, 1.4, 0.0]\n"
+                                             "drag = [0.1, 1.0, 2.4, 3.0]\n");
+  const Case ok = load_case(testing::write_temp("qs_table_ok.toml", table));
+  EXPECT_EQ(ok.aero.quasi_steady.constants.table.drag.size(), 4u);
+  const std::string bw = testing::replace(base, "coefficients = \"robofly\"\nblade_elements = 40\n",
+                                          "coefficients = \"berman-wang\"\nblade_elements = 40\n"
+                                          "[aero.quasi_steady.berman-wang]\nc_t = 1.678\nc_d_0 = 0.07\nc_d_90 = 3.06\n");
+  EXPECT_NO_THROW(load_case(testing::write_temp("qs_bw_ok.toml", bw)));
+  struct Bad {
+    std::string text, key;
+  };
+  const std::vector<Bad> bad = {
+      {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 30.0, 60.0, 80.0]"),
+       "aero.quasi_steady.table.alpha_deg"},
+      {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 60.0, 30.0, 90.0]"),
+       "aero.quasi_steady.table.alpha_deg"},
+      {testing::replace(table, "drag = [0.1, 1.0, 2.4, 3.0]", "drag = [0.1, -1.0, 2.4, 3.0]"),
+       "aero.quasi_steady.table.drag"},
+      {testing::replace(table, "lift = [0.0, 1.4, 1.4, 0.0]", "lift = [0.0, 1.4, 0.0]"), "aero.quasi_steady.table.lift"},
+      {testing::replace(table, "[aero.quasi_steady.table]\n", "[aero.quasi_steady.tabel]\n"), "aero.quasi_steady.table"},
+      {testing::replace(bw, "c_t = 1.678", "c_t = -1.0"), "aero.quasi_steady.berman-wang.c_t"},
+      {testing::replace(bw, "c_t = 1.678", "c_l = 1.678"), "aero.quasi_steady.berman-wang.c_l"},
+      {testing::replace(bw, "coefficients = \"berman-wang\"", "coefficients = \"robofly\""),
+       "aero.quasi_steady.berman-wang"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\n[aero.quasi_steady.robofly]\ndrag_mean = 1.0\n"),
+       "aero.quasi_steady.robofly.drag_mean"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\ncentre_of_pressure_chord_fraction = 1.5\n"),
+       "aero.quasi_steady.centre_of_pressure_chord_fraction"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\nrotational_coefficient = 50.0\n"),
+       "aero.quasi_steady.rotational_coefficient"},
+  };
+  int i = 0;
+  for (const auto& b : bad) {
+    const std::string path = testing::write_temp("qs_bad" + std::to_string(i++) + ".toml", b.text);
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, b.key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << b.key << ": " << what;
+  }
+}
+
+}  // namespace
+}  // namespace flapstab
