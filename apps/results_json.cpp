@@ -139,6 +139,7 @@ json trim_json(const TrimResult& r) {
     params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"initial", p.initial},
                       {"lower", p.lower}, {"upper", p.upper}});
   return {{"converged", r.converged},
+          {"solved", r.solved},
           {"solver", r.solver},
           {"objective", r.objective},
           {"message", r.message},
