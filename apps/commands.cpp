@@ -48,7 +48,29 @@ TrimResult trimmed(const Case& c, const AeroModel& model) {
   return t;
 }
 
+// The trim, or with --no-trim the case's kinematics evaluated as they are (the quasi-steady model only: the CFD
+// study trims on the CFD loads as part of its runs).
+TrimResult trim_or_evaluate(const CommandOptions& o, const Case& c, const AeroModel& model) {
+  return o.no_trim ? evaluate_at_case_kinematics(c, model) : trimmed(c, model);
+}
+
+void refuse_no_trim_with_cfd(const CommandOptions& o, const Case& c) {
+  if (o.no_trim && c.aero.model == "cfd")
+    throw InputError(c.path, "aero.model", "--no-trim is not available with the CFD model (its study trims on the CFD "
+                                           "loads)", "model = \"quasi-steady\" for --no-trim");
+}
+
 void print_trim(const Case& c, const TrimResult& t, double seconds) {
+  if (!t.solved) {
+    fmt::print("{}: '{}' NOT TRIMMED (--no-trim): the case's kinematics as given, {:.3f} s\n", c.path, c.insect.name,
+               seconds);
+    fmt::print("  residual: force {:.3e} x weight (X {:.4g}, Y {:.4g}, Z {:.4g} N), moment {:.3e} x weight x R "
+               "(L {:.4g}, M {:.4g}, N {:.4g} N m); mean aerodynamic power {:.4g} W\n",
+               t.relative_force_residual, t.force_residual.x(), t.force_residual.y(), t.force_residual.z(),
+               t.relative_moment_residual, t.moment_residual.x(), t.moment_residual.y(), t.moment_residual.z(),
+               t.mean_power);
+    return;
+  }
   fmt::print("{}: hover trim of '{}' with {} ({}), {:.3f} s, {} iterations, {} model runs\n", c.path, c.insect.name,
              t.solver, t.objective, seconds, t.iterations, t.model_runs);
   for (const auto& p : t.parameters)
@@ -102,6 +124,7 @@ int run_trim_hover(const CommandOptions& o) {
 int run_derivatives(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
+  refuse_no_trim_with_cfd(o, c);
   std::optional<CfdStudy> cfd;
   TrimResult t;
   DerivativeResult d;
@@ -111,7 +134,7 @@ int run_derivatives(const CommandOptions& o) {
     d = cfd->derivatives;
   } else {
     const auto model = make_aero_model(c);
-    t = trimmed(c, *model);
+    t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
   }
   const double secs = seconds_since(t0);
@@ -182,6 +205,9 @@ int run_stability(const CommandOptions& o) {
   nlohmann::json j;
   DerivativeTable table;
   if (!o.derivatives_path.empty()) {
+    if (o.no_trim)
+      throw InputError(o.derivatives_path, "--no-trim", "given with --derivatives (a table is not trimmed)",
+                       "--no-trim with a case file only");
     table = read_derivative_table(o.derivatives_path);
     const bool lon = o.model != "lateral", lat = o.model != "longitudinal";
     if ((!lon || !table.has_longitudinal) && (!lat || !table.has_lateral))
@@ -194,6 +220,7 @@ int run_stability(const CommandOptions& o) {
          {"derivative_table", o.derivatives_path}, {"derivative_table_fnv1a64", file_hash(o.derivatives_path)}};
   } else {
     const Case c = load_case(o.case_path);
+    refuse_no_trim_with_cfd(o, c);
     j = metadata_json(c, "stability");
     if (c.aero.model == "cfd") {
       const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), o.quiet ? nullptr : &std::cerr);
@@ -203,7 +230,8 @@ int run_stability(const CommandOptions& o) {
       j["cfd"] = cfd_study_json(cfd);
     } else {
       const auto model = make_aero_model(c);
-      const TrimResult t = trimmed(c, *model);
+      const TrimResult t = trim_or_evaluate(o, c, *model);
+      if (!o.quiet && !t.solved) print_trim(c, t, seconds_since(t0));
       const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
       table = d.table;
       j["trim"] = trim_json(t);
@@ -228,6 +256,7 @@ int run_stability(const CommandOptions& o) {
 int run_analyze(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
+  refuse_no_trim_with_cfd(o, c);
   const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
   const auto model = make_aero_model(c);
   std::optional<CfdStudy> cfd;
@@ -240,7 +269,7 @@ int run_analyze(const CommandOptions& o) {
     d = cfd->derivatives;
     history = cfd->history;
   } else {
-    t = trimmed(c, *model);
+    t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
     AeroRunOptions fine;
     fine.samples_per_cycle = 256;
@@ -258,7 +287,7 @@ int run_analyze(const CommandOptions& o) {
                       "of the CFD A(t) is in the Navier-Stokes section, control derivatives are not computed from CFD");
   } else {
     try {
-      floquet = floquet_study(c, *model, 0, &t);
+      floquet = floquet_study(c, *model, 0, &t, o.no_trim);
     } catch (const std::exception& e) {
       notices.push_back(std::string("Floquet analysis skipped: ") + e.what());
     }
@@ -271,13 +300,15 @@ int run_analyze(const CommandOptions& o) {
     }
   }
   std::optional<ControlSummary> control;
-  if (floquet && c.control.type == "pitch") {
+  if (floquet && c.control.type == "pitch" && !o.no_trim) {
     try {
       control = pitch_control_summary(c, *model, floquet->cyclic, floquet->averaged, floquet->phase);
     } catch (const SolveError& e) {
       notices.push_back(std::string("pitch-feedback analysis skipped: ") + e.what());
     }
   } else if (c.control.type == "pitch" && !cfd) {
+    if (o.no_trim) notices.push_back("pitch-feedback analysis skipped: --no-trim (it needs the periodic hover orbit)");
+    else
     notices.push_back("pitch-feedback analysis skipped: it needs the time-periodic hover (see the Floquet note)");
   }
   const double secs = seconds_since(t0);

@@ -11,6 +11,8 @@ struct CommandOptions {
   std::string json_path;     // --json FILE ("" = none)
   std::string output_dir;    // -o DIR ("" = none)
   bool quiet = false;
+  bool no_trim = false;      // --no-trim: evaluate at the case's kinematics as they are (derivatives, stability,
+                             // floquet, analyze), the residual reported instead of balanced
 };
 
 // Each returns the process exit status; errors are thrown (InputError, SolveError) and mapped to

@@ -38,8 +38,10 @@ FloquetSubsystem subsystem(const std::string& name, const std::vector<int>& idx,
   const PeriodicMatrixSpline A(T, s.phase.system_samples(idx));
   f.integration = monodromy([&](double t) { return A(t); }, Eigen::Index(idx.size()), T);
   f.phase_resolved = floquet_analysis(name, order, f.integration.monodromy, T, scale, ref);
-  f.flow_sensitivity = floquet_analysis(name, order, block(s.cyclic.monodromy, idx), T, scale, ref);
-  for (std::size_t i = 0; i < idx.size(); ++i)
+  f.has_flow_sensitivity = !s.no_trim;
+  f.flow_sensitivity = s.no_trim ? f.phase_resolved
+                                 : floquet_analysis(name, order, block(s.cyclic.monodromy, idx), T, scale, ref);
+  for (std::size_t i = 0; i < idx.size() && f.has_flow_sensitivity; ++i)
     f.max_multiplier_difference = std::max(
         f.max_multiplier_difference, std::abs(f.phase_resolved.multipliers[i] - f.flow_sensitivity.multipliers[i]));
   f.lti = lti;
@@ -97,6 +99,12 @@ json subsystem_json(const FloquetSubsystem& f) {
                  {"max_multiplier_difference", f.max_multiplier_difference}};
   j["routes"]["flow_sensitivity"]["description"] =
       "d x(T) / d x(0) of the nonlinear free system about the cyclic orbit, CVODES forward sensitivities (rtol 1e-12)";
+  if (!f.has_flow_sensitivity) {
+    j["routes"]["flow_sensitivity"] = nullptr;
+    j["routes"]["max_multiplier_difference"] = nullptr;
+    j["routes"]["note"] = "--no-trim: no periodic orbit, so no flow-sensitivity route; A(t) linearises the equations "
+                          "of motion about the body held at rest at the case's kinematics";
+  }
   return j;
 }
 
@@ -121,13 +129,37 @@ void print_subsystem(const char* title, const FloquetSubsystem& f) {
     for (const Mode& m : f.lti->modes)
       fmt::print("  LTI {:<36} {:>26} {:>26}\n", m.name, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat));
   for (const auto& n : f.phase_resolved.notices) fmt::print("  note: {}\n", n);
-  fmt::print("  routes agree: max |mu_phase - mu_flow| = {:.2e}\n", f.max_multiplier_difference);
+  if (f.has_flow_sensitivity) fmt::print("  routes agree: max |mu_phase - mu_flow| = {:.2e}\n", f.max_multiplier_difference);
 }
 
 }  // namespace
 
-FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, const TrimResult* averaged) {
+FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, const TrimResult* averaged,
+                           bool no_trim) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (no_trim) {
+    // The case's kinematics as they are: the residual reported, the averaged derivatives there, and A(t) about the
+    // body held at rest (an orbit of zeros) - the linearisation the periodic analysis has when the hover is not
+    // balanced and there is no periodic orbit to linearise about.
+    check_cyclic_trim_case(c, model);
+    FloquetStudy s;
+    s.no_trim = true;
+    s.averaged_trim = averaged ? *averaged : evaluate_at_case_kinematics(c, model);
+    s.averaged = cycle_averaged_derivatives(model, c.insect, c.kinematics, c.fluid, c.derivatives.relative_step);
+    s.cyclic.kinematics = c.kinematics;
+    s.cyclic.period = c.kinematics.period();
+    s.cyclic.message = "not solved (--no-trim)";
+    const int N = phases > 0 ? phases : c.aero.quasi_steady.samples_per_cycle;
+    const InstantaneousAero aero(model, c.insect, c.kinematics);
+    s.phase = phase_resolved_derivatives(aero, std::vector<BodyStateVector>(std::size_t(N), BodyStateVector::Zero()),
+                                         s.averaged.table.reference, c.derivatives.relative_step);
+    const StabilityReport lti = analyse_stability(s.averaged.table);
+    const ReferenceQuantities& ref = s.averaged.table.reference;
+    s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
+    s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
+    s.wall_time_s = seconds_since(t0);
+    return s;
+  }
   // The averaged trim, cyclic trim, derivatives at the cyclic trim's kinematics (so both analyses see the same
   // wingbeat), orbit and phase-resolved derivatives: flight/hover_model.hpp computes them once for every user.
   HoverModel h = hover_model(c, model, {}, phases, {}, averaged);
@@ -147,6 +179,31 @@ FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, co
 json floquet_json(const Case& c, const FloquetStudy& s) {
   json j = metadata_json(c, "floquet");
   const CyclicTrimResult& ct = s.cyclic;
+  if (s.no_trim) {
+    j["cyclic_trim"] = {{"solved", false},
+                        {"note", "--no-trim: the case's kinematics as given; no periodic orbit is sought and A(t) "
+                                 "linearises the equations of motion about the body held at rest"},
+                        {"period_s", ct.period},
+                        {"kinematics", kinematics_json(ct.kinematics)}};
+    j["averaged_trim"] = trim_json(s.averaged_trim);
+    j["residual"] = {{"force_N", {s.averaged_trim.force_residual.x(), s.averaged_trim.force_residual.y(),
+                                  s.averaged_trim.force_residual.z()}},
+                     {"moment_N_m", {s.averaged_trim.moment_residual.x(), s.averaged_trim.moment_residual.y(),
+                                     s.averaged_trim.moment_residual.z()}},
+                     {"force_relative_to_weight", s.averaged_trim.relative_force_residual},
+                     {"moment_relative_to_weight_times_wing_length", s.averaged_trim.relative_moment_residual}};
+    j["derivatives"] = derivatives_json(s.averaged);
+    j["phase_resolved_derivatives"] = {{"phases", s.phase.samples.size()},
+                                       {"relative_step", s.phase.relative_step},
+                                       {"about", "the body held at rest at the case's kinematics (--no-trim)"},
+                                       {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}};
+    const json lon_j = subsystem_json(s.longitudinal);
+    for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();
+    j["longitudinal"] = lon_j;
+    j["lateral"] = subsystem_json(s.lateral);
+    j["wall_time_s"] = s.wall_time_s;
+    return j;
+  }
   json params = json::array();
   for (const auto& p : ct.parameters)
     params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"averaged_trim_value", p.initial},
@@ -200,13 +257,24 @@ int run_floquet(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
   const auto model = make_aero_model(c);
-  const FloquetStudy s = floquet_study(c, *model);
+  if (o.no_trim && c.aero.model == "cfd")
+    throw InputError(c.path, "aero.model", "--no-trim is not available with the CFD model",
+                     "model = \"quasi-steady\" for --no-trim");
+  const FloquetStudy s = floquet_study(c, *model, 0, nullptr, o.no_trim);
   const std::string text = floquet_json(c, s).dump(2) + "\n";
   std::vector<std::pair<std::string, std::string>> out;
   if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
   if (!o.output_dir.empty()) out.emplace_back(o.output_dir + "/floquet.json", text);
   write_files_atomic(out);
-  if (!o.quiet) {
+  if (!o.quiet && s.no_trim) {
+    const TrimResult& t = s.averaged_trim;
+    fmt::print("{}: '{}' NOT TRIMMED (--no-trim): residual force {:.3e} x weight, moment {:.3e} x weight x R; A(t) "
+               "about the body held at rest\n", c.path, c.insect.name, t.relative_force_residual,
+               t.relative_moment_residual);
+    print_subsystem("longitudinal", s.longitudinal);
+    print_subsystem("lateral", s.lateral);
+    fmt::print("done in {:.2f} s\n", seconds_since(t0));
+  } else if (!o.quiet) {
     const CyclicTrimResult& ct = s.cyclic;
     fmt::print("{}: cyclic hover trim of '{}': residual {:.2e} after {} Newton iterations ({} integrations)\n", c.path,
                c.insect.name, ct.residual, ct.iterations, ct.integrations);

@@ -19,6 +19,7 @@ struct FloquetSubsystem {
   FloquetAnalysis flow_sensitivity;   // route 2: d x(T) / d x(0) of the nonlinear flow (CVODES)
   MonodromyResult integration;        // route 1's CVODE statistics
   double max_multiplier_difference = 0;  // max over multipliers of |mu_1 - mu_2| (both sorted alike)
+  bool has_flow_sensitivity = true;      // false with --no-trim (no periodic orbit: route 2 does not exist)
   std::optional<StabilityAnalysis> lti;  // the averaged model's modes of the same subsystem
   Eigen::VectorXcd lti_eigenvalues_nd;
   // Each Floquet mode (phase_resolved.modes) beside the averaged mode of the most similar eigenvector.
@@ -26,6 +27,9 @@ struct FloquetSubsystem {
 };
 
 struct FloquetStudy {
+  // --no-trim: no trim and no periodic orbit; A(t) is the linearisation about the body held at rest at the case's
+  // kinematics (the equations of motion with the aerodynamic wrench at zero body motion), route 1 only.
+  bool no_trim = false;
   TrimResult averaged_trim;
   DerivativeResult averaged;
   CyclicTrimResult cyclic;
@@ -38,7 +42,8 @@ struct FloquetStudy {
 // [aero.quasi_steady] samples_per_cycle). Throws InputError (asymmetric case, model without
 // instantaneous loads) or SolveError (trim or cyclic trim not converged).
 // `averaged`: the case's averaged trim when the caller has solved it already (analyze), else solved here.
-FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases = 0, const TrimResult* averaged = nullptr);
+FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases = 0, const TrimResult* averaged = nullptr,
+                           bool no_trim = false);
 
 nlohmann::json floquet_json(const Case& c, const FloquetStudy& s);
 

@@ -19,6 +19,13 @@ void add_common(CLI::App* sub, flapstab::CommandOptions& o) {
   sub->add_flag("-q,--quiet", o.quiet, "print nothing on success");
 }
 
+// --no-trim on the commands that otherwise trim first.
+void add_no_trim(CLI::App* sub, flapstab::CommandOptions& o) {
+  sub->add_flag("--no-trim", o.no_trim,
+                "do not trim: evaluate at the case's kinematics as they are and report the force and moment residual "
+                "(quasi-steady model only)");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -33,10 +40,12 @@ int main(int argc, char** argv) {
   CLI::App* der = app.add_subcommand("derivatives", "trim, then the cycle-averaged stability derivatives "
                                                     "(central differences in u, v, w, p, q, r)");
   add_common(der, o);
+  add_no_trim(der, o);
   CLI::App* floq = app.add_subcommand("floquet", "time-periodic hover: cyclic trim of the free body-plus-wings "
                                                  "system, phase-resolved derivatives, monodromy by two routes, Floquet "
                                                  "multipliers and modes beside the averaged LTI modes");
   add_common(floq, o);
+  add_no_trim(floq, o);
   CLI::App* stab = app.add_subcommand("stability", "eigen-analysis of the hover: longitudinal [u w q theta], lateral "
                                                    "[v p r phi] and coupled 6DoF modes, from a case (trimmed first) "
                                                    "or a derivative table");
@@ -48,11 +57,13 @@ int main(int argc, char** argv) {
   stab->add_option("--json", o.json_path, "write the machine-readable results to this JSON file");
   stab->add_option("-o,--output", o.output_dir, "write stability.json and stability.md into this directory");
   stab->add_flag("-q,--quiet", o.quiet, "print nothing on success");
+  add_no_trim(stab, o);
   CLI::App* an = app.add_subcommand("analyze", "the main job: trim, derivatives, stability, and a report "
                                                "(report.md, report.html, results.json, derivatives.toml, figures)");
   an->add_option("case", o.case_path, "case file (TOML)")->required()->check(CLI::ExistingFile);
   an->add_option("-o,--output", o.output_dir, "output directory (default: the case's [output] directory)");
   an->add_flag("-q,--quiet", o.quiet, "print nothing on success");
+  add_no_trim(an, o);
   flapstab::CfdCommandOptions co;
   CLI::App* cfd = app.add_subcommand(
       "cfd", "Navier-Stokes immersed-boundary run of the case's insect ([aero.cfd] settings): prints the grid, memory "

@@ -284,7 +284,12 @@ std::string verdict(const ReportInputs& in) {
 
 }  // namespace
 
-std::string report_verdict(const ReportInputs& in) { return verdict(in); }
+std::string report_verdict(const ReportInputs& in) {
+  if (in.trim && !in.trim->solved)
+    return fmt::format("NOT TRIMMED (--no-trim; residual force {:.3g} x weight, moment {:.3g} x weight x R): {}",
+                       in.trim->relative_force_residual, in.trim->relative_moment_residual, verdict(in));
+  return verdict(in);
+}
 
 ReportFiles build_report(const ReportInputs& in) {
   ReportFiles out;
@@ -303,7 +308,7 @@ ReportFiles build_report(const ReportInputs& in) {
   md << "Sources of the insect's numbers:\n\n";
   for (const auto& s : c.sources) md << "- " << s << "\n";
   md << "\n## Summary\n\n";
-  md << "**Verdict:** " << verdict(in) << "\n\n";
+  md << "**Verdict:** " << report_verdict(in) << "\n\n";
   auto count_unstable = [](const std::optional<StabilityAnalysis>& a) {
     int n = 0;
     if (a)
@@ -324,6 +329,12 @@ ReportFiles build_report(const ReportInputs& in) {
                           *m.time_to_double_s, *m.time_to_double_wingbeats);
   }
   md << "\n## Hover trim\n\n";
+  if (!t.solved)
+    md << fmt::format("**Not trimmed (--no-trim):** everything below is evaluated at the case's kinematics as they "
+                      "are. Mean force residual (aerodynamic force + weight) X {:.4g}, Y {:.4g}, Z {:.4g} N; moment "
+                      "residual L {:.4g}, M {:.4g}, N {:.4g} N m.\n\n",
+                      t.force_residual.x(), t.force_residual.y(), t.force_residual.z(), t.moment_residual.x(),
+                      t.moment_residual.y(), t.moment_residual.z());
   md << fmt::format("Solver {} ({}), {} iterations, {} model runs. Residuals: force {:.2e} × weight, moment "
                     "{:.2e} × weight × wing length. Weight {:.4g} N; mean aerodynamic power {:.4g} W ({:.4g} W/kg).\n\n",
                     t.solver, t.objective, t.iterations, t.model_runs, t.relative_force_residual,

@@ -52,6 +52,12 @@ json kinematics_json(const Kinematics& k) {
       for (double x : f->b) s.push_back(x / deg);
       j = {{"type", "fourier"}, {"mean_deg", f->mean / deg}, {"cos_deg", c}, {"sin_deg", s}};
       if (f->rate != 0) j["rate_deg_per_cycle"] = f->rate / deg;
+    } else if (const BermanWangSeries* b = a.berman_wang()) {
+      j = {{"type", "berman-wang"}, {"amplitude_deg", b->amplitude / deg}, {"mean_deg", b->mean / deg},
+           {"phase_deg", b->phase / deg}};
+      if (b->form == BermanWangSeries::Form::stroke) j["shape_k"] = b->shape;
+      else if (b->form == BermanWangSeries::Form::pitch) j["shape_c"] = b->shape;
+      else j["harmonic"] = b->harmonic;
     } else {
       std::vector<double> v, d;
       for (double x : a.hermite()->values) v.push_back(x / deg);
@@ -133,6 +139,7 @@ json trim_json(const TrimResult& r) {
     params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"initial", p.initial},
                       {"lower", p.lower}, {"upper", p.upper}});
   return {{"converged", r.converged},
+          {"solved", r.solved},
           {"solver", r.solver},
           {"objective", r.objective},
           {"message", r.message},

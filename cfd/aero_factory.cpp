@@ -10,8 +10,13 @@ std::unique_ptr<AeroModel> make_aero_model(const Case& c) {
   if (c.aero.model == "quasi-steady") {
     QuasiSteadyOptions o;
     o.rho = c.fluid.density;
-    o.coefficients = c.aero.quasi_steady.coefficients == "berman-wang" ? CoefficientSet::berman_wang
-                                                                        : CoefficientSet::robofly;
+    const std::string& set = c.aero.quasi_steady.coefficients;
+    o.coefficients = set == "berman-wang" ? CoefficientSet::berman_wang
+                     : set == "table"     ? CoefficientSet::table
+                                          : CoefficientSet::robofly;
+    o.constants = c.aero.quasi_steady.constants;
+    o.rotational_coefficient = c.aero.quasi_steady.rotational_coefficient;
+    o.centre_of_pressure = c.aero.quasi_steady.centre_of_pressure;
     o.blade_elements = c.aero.quasi_steady.blade_elements;
     o.rotational = c.aero.quasi_steady.rotational;
     o.added_mass = c.aero.quasi_steady.added_mass;

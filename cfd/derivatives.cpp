@@ -14,6 +14,7 @@ ReferenceQuantities reference_quantities(const Insect& insect, const Kinematics&
   r.S_t = 2 * insect.wing.area();
   r.rho = fluid.density;
   r.frequency = kin.frequency_hz;
+  r.g = insect.gravity;
   return r;
 }
 
@@ -88,7 +89,9 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 }
 
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
-                                          const ReferenceQuantities& ref, double relative_step, double g) {
+                                          const ReferenceQuantities& ref, double relative_step,
+                                          std::optional<double> g_given) {
+  const double g = g_given.value_or(insect.gravity);
   if (!(relative_step > 0)) throw SolveError("phase_resolved_from_runs: the relative step must be positive");
   PhaseDerivatives out;
   out.period = kin.period();

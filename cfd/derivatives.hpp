@@ -36,6 +36,6 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 // steady perturbation, phase by phase (its wake memory included).
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                           const ReferenceQuantities& reference, double relative_step,
-                                          double g = standard_gravity);
+                                          std::optional<double> g = std::nullopt);  // default: insect.gravity
 
 }  // namespace flapstab

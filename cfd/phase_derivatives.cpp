@@ -29,7 +29,8 @@ BodyMotion body_motion(const BodyStateVector& x) {
   return m;
 }
 
-BodyStateVector free_flight_derivative(const InstantaneousAero& aero, double t, const BodyStateVector& x, double g) {
+BodyStateVector free_flight_derivative(const InstantaneousAero& aero, double t, const BodyStateVector& x,
+                                       std::optional<double> g) {
   return body_state_derivative(aero.configuration(), t, x, aero(t, body_motion(x)), g);
 }
 
@@ -63,7 +64,8 @@ std::vector<Eigen::MatrixXd> PhaseDerivatives::system_samples(const std::vector<
 }
 
 void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wrench& w0,
-                           const ReferenceQuantities& ref, double g) {
+                           const ReferenceQuantities& ref, std::optional<double> g_given) {
+  const double g = g_given.value_or(config.insect().gravity);
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j)
       s.wrench_nd(i, j) = s.wrench_si(i, j) * (j < 3 ? ref.U : ref.U / ref.c) /
@@ -88,7 +90,9 @@ void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wr
 }
 
 PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const std::vector<BodyStateVector>& orbit,
-                                            const ReferenceQuantities& ref, double relative_step, double g) {
+                                            const ReferenceQuantities& ref, double relative_step,
+                                            std::optional<double> g_given) {
+  const double g = g_given.value_or(aero.configuration().insect().gravity);
   if (orbit.size() < 3) throw SolveError("phase_resolved_derivatives: need at least 3 phases");
   if (!(relative_step > 0)) throw SolveError("phase_resolved_derivatives: the relative step must be positive");
   const long evals0 = aero.evaluations();

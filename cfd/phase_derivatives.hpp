@@ -45,8 +45,9 @@ class InstantaneousAero {
 BodyMotion body_motion(const BodyStateVector& x);
 
 // dx/dt of the free body-plus-wings system with the instantaneous aerodynamic loads.
+// g defaults to the insect's gravity here and below.
 BodyStateVector free_flight_derivative(const InstantaneousAero& aero, double t, const BodyStateVector& x,
-                                       double g = standard_gravity);
+                                       std::optional<double> g = std::nullopt);
 
 // Index of each state of [u, v, w, p, q, r, phi, theta] in BodyStateVector.
 inline constexpr int linear_state_index[8] = {3, 4, 5, 6, 7, 8, 9, 10};
@@ -76,12 +77,12 @@ struct PhaseDerivatives {
 // Completes a sample whose time, state and wrench_si are set: wrench_nd, and system_si = the linearised equations
 // of motion at (time, state) with the aerodynamic wrench held at w0, plus the mass matrix's response to wrench_si.
 void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wrench& w0,
-                           const ReferenceQuantities& reference, double g = standard_gravity);
+                           const ReferenceQuantities& reference, std::optional<double> g = std::nullopt);
 
 // Linearisation of the free system at N phases about a periodic orbit given by its states at
 // t_k = k T / N (orbit.size() = N; an orbit of zeros is hover at rest with the body held still).
 PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const std::vector<BodyStateVector>& orbit,
                                             const ReferenceQuantities& reference, double relative_step,
-                                            double g = standard_gravity);
+                                            std::optional<double> g = std::nullopt);
 
 }  // namespace flapstab

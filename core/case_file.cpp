@@ -34,6 +34,32 @@ std::optional<SensibleRange> sensible_range(const std::string& unit) {
   return std::nullopt;
 }
 
+// Minimum of p(x) = sum_k a[k] x^k over [0, 1]: at an end or at a real root of p' inside (the eigenvalues of p''s
+// companion matrix).
+double polynomial_minimum_on_unit_interval(const std::vector<double>& a) {
+  auto p = [&](double x) {
+    double v = 0;
+    for (auto k = a.rbegin(); k != a.rend(); ++k) v = v * x + *k;
+    return v;
+  };
+  double lowest = std::min(p(0.0), p(1.0));
+  std::vector<double> d;  // p' coefficients, trailing zeros dropped
+  for (std::size_t k = 1; k < a.size(); ++k) d.push_back(double(k) * a[k]);
+  while (!d.empty() && d.back() == 0) d.pop_back();
+  if (d.size() >= 2) {
+    const Eigen::Index n = Eigen::Index(d.size()) - 1;
+    Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(n, n);
+    for (Eigen::Index i = 1; i < n; ++i) companion(i, i - 1) = 1;
+    for (Eigen::Index i = 0; i < n; ++i) companion(i, n - 1) = -d[std::size_t(i)] / d.back();
+    const Eigen::VectorXcd roots = Eigen::EigenSolver<Eigen::MatrixXd>(companion, false).eigenvalues();
+    for (const auto& z : roots)
+      if (std::abs(z.imag()) < 1e-8 && z.real() > 0 && z.real() < 1) lowest = std::min(lowest, p(z.real()));
+  }
+  // A dense sample as well: a double root of p' (an inflection) is found above only to the eigenvalue accuracy.
+  for (int i = 1; i < 1000; ++i) lowest = std::min(lowest, p(i / 1000.0));
+  return lowest;
+}
+
 class Section {
  public:
   Section(const toml::table* t, std::string file, std::string path)
@@ -186,8 +212,28 @@ Wing parse_wing(Section s) {
   Wing w;
   w.length = s.positive("length_m", "m");
   w.mean_chord = s.positive("mean_chord_m", "m");
-  const std::string pf = s.string("planform", false, "elliptic", {"elliptic", "rectangular", "tabulated"});
-  w.planform = pf == "elliptic" ? Planform::elliptic : pf == "rectangular" ? Planform::rectangular : Planform::tabulated;
+  const std::string pf =
+      s.string("planform", false, "elliptic", {"elliptic", "rectangular", "tabulated", "polynomial"});
+  w.planform = pf == "elliptic"      ? Planform::elliptic
+               : pf == "rectangular" ? Planform::rectangular
+               : pf == "tabulated"   ? Planform::tabulated
+                                     : Planform::polynomial;
+  if (w.planform == Planform::polynomial) {
+    const std::string expected = "coefficients a_k of c(r) = sum_k a_k (r/R)^k, k = 0..n (n <= 20), c >= 0 on [0, 1]";
+    w.poly = s.numbers("chord_coefficients", expected, true);
+    if (w.poly.empty() || w.poly.size() > 21) s.fail("chord_coefficients", "needs 1 to 21 coefficients", expected);
+    // Normalise so that the mean chord is exactly mean_chord_m (area = mean_chord_m R): int_0^1 sum a_k x^k = sum a_k/(k+1).
+    double area = 0;
+    for (std::size_t k = 0; k < w.poly.size(); ++k) area += w.poly[k] / double(k + 1);
+    if (!(area > 0)) s.fail("chord_coefficients", fmt::format("encloses no area (integral {:.6g})", area), expected);
+    for (double& a : w.poly) a /= area;
+    const double lowest = polynomial_minimum_on_unit_interval(w.poly);
+    if (lowest < -1e-12)
+      s.fail("chord_coefficients",
+             fmt::format("gives a negative chord on [0, 1] (c/c_bar = {:.6g} at its minimum)", lowest), expected);
+  } else if (s.has("chord_coefficients")) {
+    s.fail("chord_coefficients", "given for planform \"" + pf + "\"", "planform = \"polynomial\"");
+  }
   if (w.planform == Planform::tabulated) {
     w.table_r = s.numbers("r_over_R", "an increasing array of r/R in [0, 1]", true);
     w.table_c = s.numbers("chord_over_mean", "an array of c/c_bar >= 0, as long as r_over_R", true);
@@ -239,9 +285,30 @@ Wing parse_wing(Section s) {
 
 AngleSeries parse_angle(Section s, const std::string& name, double default_mean_deg) {
   if (!s.present()) return FourierSeries{default_mean_deg * deg, {}, {}};
-  const std::string type = s.string("type", false, "fourier", {"fourier", "hermite"});
+  const std::string type = s.string("type", false, "fourier", {"fourier", "hermite", "berman-wang"});
   AngleSeries out;
-  if (type == "fourier") {
+  if (type == "berman-wang") {
+    // Berman & Wang (2007, J Fluid Mech 582:153); see core/series.hpp for the three forms.
+    BermanWangSeries b;
+    b.form = name == "stroke" ? BermanWangSeries::Form::stroke
+             : name == "pitch" ? BermanWangSeries::Form::pitch : BermanWangSeries::Form::deviation;
+    b.amplitude = s.number("amplitude_deg", "the amplitude in degrees (half the peak-to-peak excursion)") * deg;
+    b.mean = s.number_or("mean_deg", default_mean_deg, "a number in degrees") * deg;
+    b.phase = s.number_or("phase_deg", 0.0, "a phase in degrees of the wingbeat") * deg;
+    if (b.form == BermanWangSeries::Form::stroke) {
+      const std::string expected = "K in (0, 1) (K -> 0: a cosine, K -> 1: a triangle wave)";
+      b.shape = s.number("shape_k", expected);
+      if (!(b.shape > 0 && b.shape < 1)) s.fail("shape_k", fmt::format("out of range: {:.6g}", b.shape), expected);
+    } else if (b.form == BermanWangSeries::Form::pitch) {
+      const std::string expected = "C in (0, 1000] (C -> 0: a sine, large C: a square wave)";
+      b.shape = s.number("shape_c", expected);
+      if (!(b.shape > 0 && b.shape <= 1000)) s.fail("shape_c", fmt::format("out of range: {:.6g}", b.shape), expected);
+    } else {
+      if (!s.has("harmonic")) s.fail("harmonic", "missing", "the harmonic N of the deviation, an integer in [1, 16]");
+      b.harmonic = s.integer_or("harmonic", 1, 1, 16);
+    }
+    out = b;
+  } else if (type == "fourier") {
     FourierSeries f;
     f.mean = s.number_or("mean_deg", default_mean_deg, "a number in degrees") * deg;
     f.a = s.numbers("cos_deg", "an array of cosine coefficients in degrees", false);
@@ -263,7 +330,6 @@ AngleSeries parse_angle(Section s, const std::string& name, double default_mean_
     out = h;
   }
   s.reject_unknown();
-  (void)name;
   return out;
 }
 
@@ -318,6 +384,72 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   }
   s.reject_unknown();
   return k;
+}
+
+// [aero.quasi_steady] constants of the translational coefficient sets (docs/theory/quasi-steady.md section 3):
+// each set's own sub-table, refused for another set; the rotational coefficient and the centre of pressure.
+void parse_coefficient_constants(Section& qs, QuasiSteadySettings& q) {
+  for (const char* set : {"robofly", "berman-wang", "table"})
+    if (qs.has(set) && q.coefficients != set)
+      qs.fail(set, "given for coefficients = \"" + q.coefficients + "\"", std::string("coefficients = \"") + set + "\"");
+  auto& k = q.constants;
+  Section r = qs.sub("robofly", false);
+  auto num = [](Section& s, const char* key, double& v) { v = s.number_or(key, v, "a number"); };
+  num(r, "lift_mean", k.robofly.lift_mean);
+  num(r, "lift_amplitude", k.robofly.lift_amplitude);
+  num(r, "lift_rate", k.robofly.lift_rate);
+  num(r, "lift_offset_deg", k.robofly.lift_offset_deg);
+  num(r, "drag_mean", k.robofly.drag_mean);
+  num(r, "drag_amplitude", k.robofly.drag_amplitude);
+  num(r, "drag_rate", k.robofly.drag_rate);
+  num(r, "drag_offset_deg", k.robofly.drag_offset_deg);
+  r.reject_unknown();
+  if (r.present()) {
+    // A drag coefficient below zero somewhere in [0, 90] deg would push the wing along the flow.
+    for (int a = 0; a <= 900; ++a) {
+      const double d = k.robofly.drag_mean -
+                       k.robofly.drag_amplitude * std::cos((k.robofly.drag_rate * a / 10.0 - k.robofly.drag_offset_deg) * deg);
+      if (d < 0)
+        r.fail("drag_mean", fmt::format("gives C_D = {:.4g} < 0 at alpha = {:g} deg", d, a / 10.0),
+               "constants whose C_D(alpha) >= 0 on [0, 90] deg");
+    }
+  }
+  Section b = qs.sub("berman-wang", false);
+  auto coefficient = [](Section& s, const char* key, double& v, double lo, const char* what) {
+    const std::string expected = fmt::format("{} in [{:g}, 10]", what, lo);
+    v = s.number_or(key, v, expected);
+    if (!(v >= lo && v <= 10)) s.fail(key, fmt::format("out of range: {:.6g}", v), expected);
+  };
+  coefficient(b, "c_t", k.berman_wang.c_t, 0, "C_T");
+  coefficient(b, "c_d_0", k.berman_wang.c_d_0, 0, "C_D(0)");
+  coefficient(b, "c_d_90", k.berman_wang.c_d_90, 0, "C_D(pi/2)");
+  b.reject_unknown();
+  Section t = qs.sub("table", q.coefficients == "table");
+  if (t.present()) {
+    const std::string ea = "angles of attack in deg, strictly increasing from 0 to 90, at least 4";
+    k.table.alpha_deg = t.numbers("alpha_deg", ea, true);
+    k.table.lift = t.numbers("lift", "C_L at each alpha_deg", true);
+    k.table.drag = t.numbers("drag", "C_D >= 0 at each alpha_deg", true);
+    const auto& al = k.table.alpha_deg;
+    if (al.size() < 4) t.fail("alpha_deg", fmt::format("has {} points", al.size()), ea);
+    if (al.front() != 0 || al.back() != 90) t.fail("alpha_deg", "does not run from 0 to 90", ea);
+    for (std::size_t i = 1; i < al.size(); ++i)
+      if (!(al[i] > al[i - 1])) t.fail("alpha_deg", "not strictly increasing", ea);
+    if (k.table.lift.size() != al.size()) t.fail("lift", "length differs from alpha_deg", "C_L at each alpha_deg");
+    if (k.table.drag.size() != al.size()) t.fail("drag", "length differs from alpha_deg", "C_D >= 0 at each alpha_deg");
+    for (double d : k.table.drag)
+      if (d < 0) t.fail("drag", fmt::format("negative value {:.6g}", d), "C_D >= 0 at each alpha_deg");
+  }
+  t.reject_unknown();
+  if (qs.has("rotational_coefficient")) {
+    const std::string expected = "C_R in [-10, 10] (thin-aerofoil theory: pi (3/4 - x0))";
+    const double v = qs.number("rotational_coefficient", expected);
+    if (!(v >= -10 && v <= 10)) qs.fail("rotational_coefficient", fmt::format("out of range: {:.6g}", v), expected);
+    q.rotational_coefficient = v;
+  }
+  q.centre_of_pressure = qs.number_or("centre_of_pressure_chord_fraction", 0.25, "a fraction of chord in [0, 1]");
+  if (!(q.centre_of_pressure >= 0 && q.centre_of_pressure <= 1))
+    qs.fail("centre_of_pressure_chord_fraction", "outside [0, 1]", "a fraction of chord from the leading edge in [0, 1]");
 }
 
 CfdSettings parse_cfd(Section s) {
@@ -390,7 +522,10 @@ std::string TrimParameterSpec::label() const {
 const std::vector<std::string>& trim_parameter_names() {
   static const std::vector<std::string> names = {
       "frequency_hz",       "stroke_amplitude_deg", "stroke_mean_deg",  "pitch_mean_deg",
-      "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg"};
+      "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg",
+      // Parameters of the Berman & Wang (2007) angle forms (type = "berman-wang" only, but deviation_amplitude_deg
+      // also scales an oscillating Fourier or Hermite deviation).
+      "stroke_shape_k", "pitch_shape_c", "pitch_phase_deg", "deviation_amplitude_deg", "deviation_phase_deg"};
   return names;
 }
 
@@ -430,11 +565,19 @@ Case load_case(const std::string& path) {
   c.fluid.kinematic_viscosity = fluid.positive_or("kinematic_viscosity_m2_s", 1.5e-5, "m^2/s");
   fluid.reject_unknown();
 
+  // [environment]: gravity where the insect flies (weight in the trim, the equations of motion, the derivatives'
+  // gravity terms, free flight). From Pluto's surface (0.62) and the Moon (1.62) to a 10 g centrifuge; outside
+  // that range a value is a unit error.
+  Section env = top.sub("environment", false);
+  c.insect.gravity = env.positive_in("gravity_m_s2", standard_gravity, 0.1, 100.0, "an acceleration in m/s^2");
+  env.reject_unknown();
+
   Section aero = top.sub("aero", false);
   c.aero.model = aero.string("model", false, "quasi-steady", {"quasi-steady", "cfd"});
   Section qs = aero.sub("quasi_steady", false);
   auto& q = c.aero.quasi_steady;
-  q.coefficients = qs.string("coefficients", false, "robofly", {"robofly", "berman-wang"});
+  q.coefficients = qs.string("coefficients", false, "robofly", {"robofly", "berman-wang", "table"});
+  parse_coefficient_constants(qs, q);
   q.blade_elements = qs.integer_or("blade_elements", 40, 2, 10000);
   q.rotational = qs.boolean_or("rotational", true);
   q.added_mass = qs.boolean_or("added_mass", true);

@@ -1,8 +1,10 @@
 // Case files (TOML): the insect, its kinematics, the fluid, the aerodynamic model, trim and outputs.
 // Every field is validated; errors name the file, the key and what was expected (docs/case-file.md).
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
+#include "core/aero_coefficients.hpp"
 #include "core/insect.hpp"
 #include "core/kinematics.hpp"
 
@@ -14,7 +16,10 @@ struct FluidProperties {
 };
 
 struct QuasiSteadySettings {
-  std::string coefficients = "robofly";  // "robofly" | "berman-wang"
+  std::string coefficients = "robofly";  // "robofly" | "berman-wang" | "table"
+  CoefficientConstants constants;        // [aero.quasi_steady.robofly], [...berman-wang], [...table]
+  std::optional<double> rotational_coefficient;  // C_R; unset: pi (3/4 - x0)
+  double centre_of_pressure = 0.25;      // chord fraction from the leading edge
   int blade_elements = 40;
   bool rotational = true;
   bool added_mass = true;

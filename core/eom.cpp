@@ -52,9 +52,9 @@ EomTerms eom_terms(const MassState& ms, const BodyStateVector& x, const Wrench& 
 }
 
 BodyStateVector body_state_derivative(const Configuration& config, double t, const BodyStateVector& x,
-                                      const Wrench& aero, double g) {
+                                      const Wrench& aero, std::optional<double> g) {
   const MassState ms = config.mass_state(t);
-  const EomTerms e = eom_terms(ms, x, aero, g);
+  const EomTerms e = eom_terms(ms, x, aero, g.value_or(config.insect().gravity));
   const Eigen::Matrix<double, 6, 1> acc = e.mass_matrix.partialPivLu().solve(e.rhs);
   const double phi = x(9), theta = x(10);
   const Vec3 w = x.segment<3>(6);
@@ -69,7 +69,9 @@ BodyStateVector body_state_derivative(const Configuration& config, double t, con
 }
 
 Eigen::Matrix<double, 12, 12> body_state_jacobian(const Configuration& config, double t, const BodyStateVector& x,
-                                                  const Eigen::Matrix<double, 6, 6>& aero_jacobian, double g) {
+                                                  const Eigen::Matrix<double, 6, 6>& aero_jacobian,
+                                                  std::optional<double> g_given) {
+  const double g = g_given.value_or(config.insect().gravity);
   using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 12, 1>>;
   using V = Eigen::Matrix<AD, 3, 1>;
   using M3 = Eigen::Matrix<AD, 3, 3>;

@@ -11,6 +11,7 @@
 // State x = [x y z | u v w | p q r | phi theta psi]: position of O (inertial, m), velocity of O
 // (body axes, m/s), body rates (rad/s), 3-2-1 Euler angles (rad).
 #pragma once
+#include <optional>
 #include "core/configuration.hpp"
 
 namespace flapstab {
@@ -26,16 +27,16 @@ struct EomTerms {
 // (body axes). g is gravitational acceleration (m/s^2).
 EomTerms eom_terms(const MassState& m, const BodyStateVector& x, const Wrench& aero, double g);
 
-// dx/dt at time t.
+// dx/dt at time t. g defaults to the insect's gravity (config.insect().gravity).
 BodyStateVector body_state_derivative(const Configuration& config, double t, const BodyStateVector& x,
-                                      const Wrench& aero, double g = standard_gravity);
+                                      const Wrench& aero, std::optional<double> g = std::nullopt);
 
 // d(body_state_derivative) / dx (12 x 12) at time t, the aerodynamic wrench responding to the body velocity
 // and rates as aero_jacobian = d[F; M] / d[u v w p q r] (SI). Exact (forward-mode automatic differentiation of
 // the equations above); the wrench's value does not enter, the equations being linear in it.
 Eigen::Matrix<double, 12, 12> body_state_jacobian(const Configuration& config, double t, const BodyStateVector& x,
                                                   const Eigen::Matrix<double, 6, 6>& aero_jacobian,
-                                                  double g = standard_gravity);
+                                                  std::optional<double> g = std::nullopt);
 
 // Linear momentum (inertial axes) and angular momentum about the inertial origin (inertial axes)
 // of the whole system: conserved without external loads (used by tests).

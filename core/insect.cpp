@@ -21,6 +21,11 @@ double Wing::chord(double r) const {
       return 4 * mean_chord / pi * std::sqrt(std::max(0.0, 1 - x * x));
     case Planform::rectangular:
       return mean_chord;
+    case Planform::polynomial: {
+      double c = 0;
+      for (auto k = poly.rbegin(); k != poly.rend(); ++k) c = c * x + *k;  // Horner
+      return mean_chord * c;
+    }
     case Planform::tabulated: {
       auto it = std::upper_bound(table_r.begin(), table_r.end(), x);
       if (it == table_r.begin()) return table_c.front() * mean_chord;
@@ -40,9 +45,9 @@ struct Gauss {
   explicit Gauss(int n) { gauss_legendre(n, x, w); }
 };
 
-// Integral over the span of f(r, c(r)) dr. Analytic planforms: r = R sin(t), which removes the
-// square-root tip of the ellipse, then 64-point Gauss-Legendre in t (exact to round-off for the
-// polynomial moments used here). Tabulated: 4-point Gauss on each linear segment (exact for r^k c^m,
+// Integral over the span of f(r, c(r)) dr. Analytic planforms (elliptic, rectangular, polynomial): r = R sin(t),
+// which removes the square-root tip of the ellipse, then 64-point Gauss-Legendre in t (the integrands are smooth
+// in t, so the rule converges to round-off for the polynomial moments used here). Tabulated: 4-point Gauss on each linear segment (exact for r^k c^m,
 // k + m <= 7).
 template <class F>
 double span_integral(const Wing& w, F f) {

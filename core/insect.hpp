@@ -5,6 +5,7 @@
 // x along the chord towards the leading edge (origin on the pitch axis), y along the span towards the
 // tip, z = x cross y (ventral for the right wing at rest). The left wing is the mirror image.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 #include "core/types.hpp"
@@ -22,13 +23,14 @@ struct Body {
   Mat3 ellipsoid_inertia() const;
 };
 
-enum class Planform { elliptic, rectangular, tabulated };
+enum class Planform { elliptic, rectangular, tabulated, polynomial };
 
 struct Wing {
   double length = 0;        // R (m), hinge to tip
   double mean_chord = 0;    // c_bar (m) = area / R
   Planform planform = Planform::elliptic;
   std::vector<double> table_r, table_c;  // tabulated: r/R in [0,1] and c/c_bar, increasing r
+  std::vector<double> poly;              // polynomial: c/c_bar = sum_k poly[k] (r/R)^k, normalised to unit mean
   double pitch_axis = 0.25;  // x0: pitch axis position from the leading edge, fraction of local chord
   double mass = 0;           // kg, one wing
   Vec3 mass_centre = Vec3::Zero();    // wing frame, m (about the hinge)
@@ -48,8 +50,11 @@ struct Insect {
   std::string name;
   Body body;
   Wing wing;
+  // Gravitational acceleration where it flies (m/s^2; [environment] gravity_m_s2). Kept with the insect because
+  // everything that weighs it (trim, equations of motion, derivatives, free flight) already takes the insect.
+  double gravity = standard_gravity;
   double total_mass() const { return body.mass + 2 * wing.mass; }
-  double weight(double g = standard_gravity) const { return total_mass() * g; }
+  double weight() const { return total_mass() * gravity; }
 };
 
 }  // namespace flapstab

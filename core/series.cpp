@@ -35,12 +35,52 @@ SeriesValue HermiteSeries::eval(double tau) const {
   return v;
 }
 
+SeriesValue BermanWangSeries::eval(double tau) const {
+  const double w = 2 * pi, psi = w * tau + phase;
+  SeriesValue v{mean, 0, 0};
+  if (form == Form::deviation) {
+    const double n = double(harmonic), c = std::cos(n * psi), s = std::sin(n * psi);
+    v.f += amplitude * c;
+    v.df = -amplitude * n * w * s;
+    v.ddf = -amplitude * n * n * w * w * c;
+    return v;
+  }
+  // g(u(psi)) with u = K cos psi, g = asin (stroke) or u = C sin psi, g = tanh (pitch):
+  // d/dpsi g = g'(u) u', d2/dpsi2 g = g''(u) u'^2 + g'(u) u''.
+  const double c = std::cos(psi), s = std::sin(psi);
+  double g, g1, g2, u1, u2, norm;
+  if (form == Form::stroke) {
+    const double u = shape * c, q = 1 - u * u;
+    u1 = -shape * s;
+    u2 = -shape * c;
+    g = std::asin(u);
+    g1 = 1 / std::sqrt(q);
+    g2 = u / (q * std::sqrt(q));
+    norm = std::asin(shape);
+  } else {
+    const double u = shape * s;
+    u1 = shape * c;
+    u2 = -shape * s;
+    g = std::tanh(u);
+    g1 = 1 - g * g;
+    g2 = -2 * g * g1;
+    norm = std::tanh(shape);
+  }
+  const double k = amplitude / norm;
+  v.f += k * g;
+  v.df = k * w * g1 * u1;
+  v.ddf = k * w * w * (g2 * u1 * u1 + g1 * u2);
+  return v;
+}
+
 SeriesValue AngleSeries::eval(double tau) const {
   return std::visit([tau](const auto& s) { return s.eval(tau); }, s_);
 }
 
 double AngleSeries::mean() const {
   if (auto f = fourier()) return f->mean;
+  // Each Berman-Wang oscillation is odd about a quarter period (asin(K cos), tanh(C sin)) or a cosine: zero mean.
+  if (auto b = berman_wang()) return b->mean;
   // Exact integral of each Hermite cubic: h (p0 + p1)/2 + h^2 (m0 - m1)/12, summed (slope terms cancel).
   const auto& h = *hermite();
   double s = 0;
@@ -63,6 +103,8 @@ double AngleSeries::peak_to_peak() const {
 void AngleSeries::shift(double d) {
   if (auto f = std::get_if<FourierSeries>(&s_)) {
     f->mean += d;
+  } else if (auto b = berman_wang()) {
+    b->mean += d;
   } else {
     for (double& v : std::get<HermiteSeries>(s_).values) v += d;
   }
@@ -72,6 +114,8 @@ void AngleSeries::scale_oscillation(double s) {
   if (auto f = std::get_if<FourierSeries>(&s_)) {
     for (double& x : f->a) x *= s;
     for (double& x : f->b) x *= s;
+  } else if (auto b = berman_wang()) {
+    b->amplitude *= s;
   } else {
     auto& h = std::get<HermiteSeries>(s_);
     const double m = mean();

@@ -1,5 +1,6 @@
 // Control derivatives by central differences of the cycle-mean wrench, moments about the trimmed O.
 #include "flight/control_derivatives.hpp"
+#include <algorithm>
 
 #include "core/configuration.hpp"
 #include "flight/controller.hpp"
@@ -9,7 +10,9 @@ namespace flapstab {
 
 ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& trimmed,
                                             const std::vector<TrimParameterSpec>& parameters,
-                                            const ReferenceQuantities& ref, double g, const AeroRunOptions& run) {
+                                            const ReferenceQuantities& ref, std::optional<double> g_given,
+                                            const AeroRunOptions& run) {
+  const double g = g_given.value_or(insect.gravity);
   const TrimParameterization par(trimmed, parameters, "");
   const Vec3 o_trim = Configuration(insect, trimmed).reference_point();
   const double mg = insect.total_mass() * g;
@@ -30,7 +33,13 @@ ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect
   };
   for (Eigen::Index j = 0; j < n; ++j) {
     const TrimParameterSpec& s = parameters[std::size_t(j)];
-    const double h = s.name == "frequency_hz" ? 0.005 * trimmed.frequency_hz : 0.5;
+    // Central-difference steps: 0.5 deg for angles, 0.5 % of the frequency, and for the dimensionless shapes of the
+    // Berman-Wang forms a step that keeps K inside (0, 1) and C positive.
+    const double x0 = par.initial()[std::size_t(j)];
+    const double h = s.name == "frequency_hz"     ? 0.005 * trimmed.frequency_hz
+                     : s.name == "stroke_shape_k" ? 0.5 * std::min({0.01, x0, 1 - x0})
+                     : s.name == "pitch_shape_c"  ? 0.01 * x0
+                                                  : 0.5;
     std::vector<double> p = par.initial(), m = par.initial();
     p[std::size_t(j)] += h;
     m[std::size_t(j)] -= h;

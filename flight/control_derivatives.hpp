@@ -22,7 +22,8 @@ struct ControlDerivativeResult {
 
 ControlDerivativeResult control_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& trimmed,
                                             const std::vector<TrimParameterSpec>& parameters,
-                                            const ReferenceQuantities& ref, double gravity = standard_gravity,
+                                            const ReferenceQuantities& ref,
+                                            std::optional<double> gravity = std::nullopt,  // default: insect.gravity
                                             const AeroRunOptions& run = {});
 
 // The parameters a case can actuate: its [[trim.parameter]] entries and its [control] actuators, each once.

@@ -34,10 +34,10 @@ std::array<bool, 6> free_accelerations(DofSet d) {
 }
 
 FlightDynamics::FlightDynamics(const AeroModel& model, const Insect& insect, const Kinematics& trimmed,
-                               std::vector<TrimParameterSpec> actuators, DofSet dofs, double gravity,
+                               std::vector<TrimParameterSpec> actuators, DofSet dofs, std::optional<double> gravity,
                                bool aerodynamics, const std::string& file)
     : model_(model), insect_(insect), trimmed_(trimmed), par_(trimmed, std::move(actuators), file), dofs_(dofs),
-      g_(gravity), aero_(aerodynamics) {
+      g_(gravity.value_or(insect.gravity)), aero_(aerodynamics) {
   if (aero_ && !model.is_instantaneous())
     throw InputError(file, "aero.model",
                      "the " + model.name() + " model has no instantaneous loads, which free flight needs here",

@@ -45,7 +45,8 @@ class FlightDynamics {
   // actuators: the kinematic parameters a controller may change (TrimParameterization names; may be empty).
   // aerodynamics = false drops the aerodynamic loads (conservation tests).
   FlightDynamics(const AeroModel& model, const Insect& insect, const Kinematics& trimmed,
-                 std::vector<TrimParameterSpec> actuators, DofSet dofs, double gravity = standard_gravity,
+                 std::vector<TrimParameterSpec> actuators, DofSet dofs,
+                 std::optional<double> gravity = std::nullopt,  // default: insect.gravity
                  bool aerodynamics = true, const std::string& file = "");
   FlightDynamics(const FlightDynamics&) = delete;
   FlightDynamics& operator=(const FlightDynamics&) = delete;

@@ -1,5 +1,6 @@
 // Trim parameters applied to kinematics.
 #include "trim/parameters.hpp"
+#include <algorithm>
 #include <cmath>
 #include "core/errors.hpp"
 
@@ -35,6 +36,8 @@ double exact_peak_to_peak(const AngleSeries& s) {
     if (f > fmax) fmax = f, imax = i;
     if (f < fmin) fmin = f, imin = i;
   }
+  // Every Berman-Wang form spans exactly [mean - |amplitude|, mean + |amplitude|] over a cycle.
+  if (const BermanWangSeries* b = s.berman_wang()) return 2 * std::abs(b->amplitude);
   if (s.is_fourier()) {
     fmax = std::max(fmax, refine_extremum(s, double(imax) / n));
     fmin = std::min(fmin, refine_extremum(s, double(imin) / n));
@@ -42,7 +45,24 @@ double exact_peak_to_peak(const AngleSeries& s) {
   return fmax - fmin;
 }
 
-std::string TrimParameterization::unit(const std::string& name) { return name == "frequency_hz" ? "Hz" : "deg"; }
+std::string TrimParameterization::unit(const std::string& name) {
+  if (name == "frequency_hz") return "Hz";
+  if (name == "stroke_shape_k" || name == "pitch_shape_c") return "1";
+  return "deg";
+}
+
+namespace {
+// The angle a Berman-Wang parameter acts on, and whether it exists only in that form.
+const AngleSeries& berman_wang_target(const WingAngles& w, const std::string& name) {
+  if (name == "stroke_shape_k") return w.stroke;
+  if (name == "pitch_shape_c" || name == "pitch_phase_deg") return w.pitch;
+  return w.deviation;
+}
+bool berman_wang_only(const std::string& name) {
+  return name == "stroke_shape_k" || name == "pitch_shape_c" || name == "pitch_phase_deg" ||
+         name == "deviation_phase_deg";
+}
+}  // namespace
 
 TrimParameterization::TrimParameterization(const Kinematics& base, std::vector<TrimParameterSpec> specs,
                                            const std::string& file)
@@ -57,9 +77,24 @@ TrimParameterization::TrimParameterization(const Kinematics& base, std::vector<T
                               s.name == "pitch_amplitude_deg"))
       throw InputError(file, key + ".name", "\"" + s.name + "\" has no meaning for revolving wings",
                        "frequency_hz, pitch_mean_deg, body_angle_deg, stroke_plane_deg or deviation_mean_deg");
-    if (s.name == "stroke_amplitude_deg" || s.name == "pitch_amplitude_deg") {
+    if (berman_wang_only(s.name))
+      for (const WingAngles* w : wings(base_, s.side))
+        if (!berman_wang_target(*w, s.name).berman_wang())
+          throw InputError(file, key + ".name", "\"" + s.name + "\" needs a Berman-Wang angle",
+                           "type = \"berman-wang\" for that angle in [kinematics]");
+    if (s.name == "stroke_shape_k" && !(s.lower > 0 && s.upper < 1))
+      throw InputError(file, key + ".lower", "bounds of K outside (0, 1)", "0 < lower < upper < 1");
+    if (s.name == "pitch_shape_c" && !(s.lower > 0 && s.upper <= 1000))
+      throw InputError(file, key + ".lower", "bounds of C outside (0, 1000]", "0 < lower < upper <= 1000");
+    const std::vector<WingAngles*> acted = wings(base_, s.side);
+    const bool bw_deviation = s.name == "deviation_amplitude_deg" &&
+                              std::all_of(acted.begin(), acted.end(),
+                                          [](const WingAngles* w) { return w->deviation.berman_wang() != nullptr; });
+    if (s.name == "stroke_amplitude_deg" || s.name == "pitch_amplitude_deg" ||
+        (s.name == "deviation_amplitude_deg" && !bw_deviation)) {
       for (const WingAngles* w : wings(base_, s.side)) {
-        const AngleSeries& a = s.name == "stroke_amplitude_deg" ? w->stroke : w->pitch;
+        const AngleSeries& a = s.name == "stroke_amplitude_deg" ? w->stroke
+                               : s.name == "pitch_amplitude_deg" ? w->pitch : w->deviation;
         if (exact_peak_to_peak(a) < 1e-9)
           throw InputError(file, key + ".name", "cannot scale the amplitude of a constant angle",
                            "an oscillating angle in [kinematics]");
@@ -79,6 +114,11 @@ double TrimParameterization::base_value(const TrimParameterSpec& s) const {
   if (s.name == "stroke_mean_deg") return w.stroke.mean() / deg;
   if (s.name == "pitch_mean_deg") return w.pitch.mean() / deg;
   if (s.name == "deviation_mean_deg") return w.deviation.mean() / deg;
+  if (s.name == "deviation_amplitude_deg") return exact_peak_to_peak(w.deviation) / deg;
+  if (s.name == "stroke_shape_k") return w.stroke.berman_wang()->shape;
+  if (s.name == "pitch_shape_c") return w.pitch.berman_wang()->shape;
+  if (s.name == "pitch_phase_deg") return w.pitch.berman_wang()->phase / deg;
+  if (s.name == "deviation_phase_deg") return w.deviation.berman_wang()->phase / deg;
   throw std::logic_error("unknown trim parameter " + s.name);
 }
 
@@ -97,6 +137,16 @@ Kinematics TrimParameterization::apply(const std::vector<double>& values) const 
         else if (s.name == "stroke_mean_deg") w->stroke.shift((v - v0) * deg);
         else if (s.name == "pitch_mean_deg") w->pitch.shift((v - v0) * deg);
         else if (s.name == "deviation_mean_deg") w->deviation.shift((v - v0) * deg);
+        else if (s.name == "deviation_amplitude_deg") {
+          // Peak-to-peak, as stroke_amplitude_deg: a Berman-Wang deviation is set directly (it may start at zero
+          // amplitude), any other is scaled about its mean.
+          if (BermanWangSeries* b = w->deviation.berman_wang()) b->amplitude = std::copysign(0.5 * v * deg, b->amplitude);
+          else w->deviation.scale_oscillation(v / v0);
+        }
+        else if (s.name == "stroke_shape_k") w->stroke.berman_wang()->shape = v;
+        else if (s.name == "pitch_shape_c") w->pitch.berman_wang()->shape = v;
+        else if (s.name == "pitch_phase_deg") w->pitch.berman_wang()->phase = v * deg;
+        else if (s.name == "deviation_phase_deg") w->deviation.berman_wang()->phase = v * deg;
       }
     }
   }

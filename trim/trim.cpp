@@ -330,4 +330,26 @@ TrimResult trim_hover(const Case& c, const AeroModel& model) {
   return res;
 }
 
+TrimResult evaluate_at_case_kinematics(const Case& c, const AeroModel& model) {
+  TrimResult res;
+  res.solved = false;
+  res.solver = "none";
+  res.objective = "none";
+  res.message = "not trimmed (--no-trim): the case's kinematics as given";
+  res.weight = c.insect.weight();
+  res.equations = c.kinematics.symmetric() ? std::vector<std::string>{"X", "Z", "M"}
+                                           : std::vector<std::string>{"X", "Y", "Z", "L", "M", "N"};
+  res.kinematics = c.kinematics;
+  // The same mean loads as the trim's residuals (TrimProblem::eval): one cycle with the body at rest.
+  const WrenchSample s = model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{}).mean_sample();
+  res.model_runs = 1;
+  res.force_residual = s.total().force + Vec3(0, 0, res.weight);
+  res.moment_residual = s.total().moment;
+  res.relative_force_residual = res.force_residual.norm() / res.weight;
+  res.relative_moment_residual = res.moment_residual.norm() / (res.weight * c.insect.wing.length);
+  res.mean_power = s.power;
+  res.converged = res.relative_force_residual <= c.trim.tolerance && res.relative_moment_residual <= c.trim.tolerance;
+  return res;
+}
+
 }  // namespace flapstab

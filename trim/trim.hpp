@@ -20,6 +20,7 @@ struct TrimParameterValue {
 
 struct TrimResult {
   bool converged = false;
+  bool solved = true;           // false: the case's kinematics evaluated as given (--no-trim), nothing solved
   std::string solver, objective, message;
   int iterations = 0, model_runs = 0;
   std::vector<TrimParameterValue> parameters;
@@ -39,5 +40,9 @@ struct TrimResult {
 // Solves the trim of the case's [trim] section with its solver. Throws InputError for an ill-posed
 // problem (no or too few parameters); returns converged = false when the solver fails (infeasible).
 TrimResult trim_hover(const Case& c, const AeroModel& model);
+
+// The case's kinematics as they are (flapstab --no-trim): the residuals the trim would balance (the same
+// equations, the same mean loads), nothing solved; converged tells whether they happen to hold to the tolerance.
+TrimResult evaluate_at_case_kinematics(const Case& c, const AeroModel& model);
 
 }  // namespace flapstab

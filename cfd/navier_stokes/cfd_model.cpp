@@ -202,7 +202,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   auto say = [&](const std::string& line) {
     if (log_) *log_ << line << std::flush;
   };
-  const double weight = insect.total_mass() * standard_gravity;
+  const double weight = insect.weight();
 
   // 1. The base hover, once.
   if (!st_) {

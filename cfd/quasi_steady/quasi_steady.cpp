@@ -19,21 +19,97 @@ double sgn(double x) { return x < 0 ? -1.0 : 1.0; }
 
 // Section 3: Robofly fits (Dickinson, Lehmann & Sane 1999; Sane & Dickinson 2001) and the
 // Berman & Wang 2007 thin-plate set, alpha folded into [0, pi/2].
-TranslationalCoefficients translational_coefficients(CoefficientSet set, double alpha) {
+namespace {
+
+// Clamped cubic spline through (x_i, y_i); end slopes from the cubic through the four end points (third-order
+// one-sided differences), so that a smooth tabulated function is reproduced to O(h^4) up to the ends.
+class ClampedSpline {
+ public:
+  ClampedSpline(const std::vector<double>& x, const std::vector<double>& y) : x_(x), y_(y), m_(x.size()) {
+    const std::size_t n = x.size();
+    auto end_slope = [&](std::size_t i0, int dir) {
+      // Derivative at x[i0] of the Lagrange cubic (or lower order) through the nearest points.
+      const std::size_t k = std::min<std::size_t>(4, n);
+      std::vector<std::size_t> idx;
+      for (std::size_t j = 0; j < k; ++j) idx.push_back(dir > 0 ? i0 + j : i0 - j);
+      double d = 0;
+      for (std::size_t a = 0; a < k; ++a) {
+        double w = 0;
+        for (std::size_t b = 0; b < k; ++b) {
+          if (b == a) continue;
+          double p = 1 / (x[idx[a]] - x[idx[b]]);
+          for (std::size_t c = 0; c < k; ++c)
+            if (c != a && c != b) p *= (x[i0] - x[idx[c]]) / (x[idx[a]] - x[idx[c]]);
+          w += p;
+        }
+        d += w * y[idx[a]];
+      }
+      return d;
+    };
+    // Tridiagonal system for the knot slopes m_i (C2 continuity), with m_0 and m_{n-1} given.
+    m_.front() = end_slope(0, +1);
+    m_.back() = end_slope(n - 1, -1);
+    if (n > 2) {
+      const std::size_t k = n - 2;
+      std::vector<double> a(k), b(k), c(k), r(k);
+      for (std::size_t i = 1; i + 1 < n; ++i) {
+        const double h0 = x[i] - x[i - 1], h1 = x[i + 1] - x[i];
+        a[i - 1] = 1 / h0;
+        b[i - 1] = 2 / h0 + 2 / h1;
+        c[i - 1] = 1 / h1;
+        r[i - 1] = 3 * ((y[i] - y[i - 1]) / (h0 * h0) + (y[i + 1] - y[i]) / (h1 * h1));
+      }
+      r.front() -= a.front() * m_.front();
+      r.back() -= c.back() * m_.back();
+      for (std::size_t i = 1; i < k; ++i) {  // Thomas algorithm (diagonally dominant)
+        const double f = a[i] / b[i - 1];
+        b[i] -= f * c[i - 1];
+        r[i] -= f * r[i - 1];
+      }
+      m_[k] = r[k - 1] / b[k - 1];
+      for (std::size_t i = k - 1; i-- > 0;) m_[i + 1] = (r[i] - c[i] * m_[i + 2]) / b[i];
+    }
+  }
+  double operator()(double t) const {
+    const std::size_t n = x_.size();
+    std::size_t j = std::size_t(std::upper_bound(x_.begin(), x_.end(), t) - x_.begin());
+    j = std::clamp<std::size_t>(j, 1, n - 1);
+    const double h = x_[j] - x_[j - 1], s = (t - x_[j - 1]) / h, s2 = s * s, s3 = s2 * s;
+    return (2 * s3 - 3 * s2 + 1) * y_[j - 1] + (s3 - 2 * s2 + s) * h * m_[j - 1] + (-2 * s3 + 3 * s2) * y_[j] +
+           (s3 - s2) * h * m_[j];
+  }
+
+ private:
+  std::vector<double> x_, y_, m_;
+};
+
+}  // namespace
+
+TranslationalCoefficients translational_coefficients(CoefficientSet set, double alpha,
+                                                     const CoefficientConstants& k) {
   switch (set) {
     case CoefficientSet::robofly: {
       // The fit does not vanish at 0 and 90 deg (0.027 and 0.103), where the lift direction reverses;
       // analytic end corrections C_L(0) cos^64 + C_L(90) sin^64 make it vanish there so that the force is
       // continuous. They change C_L by less than 2e-3 between 20 and 70 deg (the fit itself scatters more).
-      auto fit = [](double a_deg) { return 0.225 + 1.58 * std::sin((2.13 * a_deg - 7.20) * deg); };
+      const RoboflyConstants& r = k.robofly;
+      auto fit = [&r](double a_deg) { return r.lift_mean + r.lift_amplitude * std::sin((r.lift_rate * a_deg - r.lift_offset_deg) * deg); };
       const double a = alpha / deg, c2 = std::pow(std::cos(alpha), 2), s2 = std::pow(std::sin(alpha), 2);
       const double lift = fit(a) - fit(0) * std::pow(c2, 32) - fit(90) * std::pow(s2, 32);
-      return {lift, 1.92 - 1.55 * std::cos((2.04 * a - 9.82) * deg)};
+      return {lift, r.drag_mean - r.drag_amplitude * std::cos((r.drag_rate * a - r.drag_offset_deg) * deg)};
     }
     case CoefficientSet::berman_wang: {
-      constexpr double c_t = 1.678, c_d0 = 0.07, c_d90 = 3.06;
+      const BermanWangConstants& b = k.berman_wang;
       const double s = std::sin(alpha), c = std::cos(alpha);
-      return {c_t * 2 * s * c, c_d0 * c * c + c_d90 * s * s};
+      return {b.c_t * 2 * s * c, b.c_d_0 * c * c + b.c_d_90 * s * s};
+    }
+    case CoefficientSet::table: {
+      // Built for each call here (the model evaluates through CoefficientFit, which calls this once per node).
+      const CoefficientTable& t = k.table;
+      if (t.alpha_deg.size() < 2 || t.lift.size() != t.alpha_deg.size() || t.drag.size() != t.alpha_deg.size())
+        throw std::invalid_argument("quasi-steady coefficient table: needs matching alpha, lift and drag arrays");
+      const double a = std::clamp(alpha / deg, t.alpha_deg.front(), t.alpha_deg.back());
+      return {ClampedSpline(t.alpha_deg, t.lift)(a), ClampedSpline(t.alpha_deg, t.drag)(a)};
     }
   }
   throw std::logic_error("unknown coefficient set");
@@ -42,7 +118,7 @@ TranslationalCoefficients translational_coefficients(CoefficientSet set, double 
 // Degree-9 interpolation at the Chebyshev points of each of 64 equal pieces of t in [0, 1]; the
 // coefficients are entire in alpha = 2 atan(t), whose nearest singularities (t = +-i) are far from
 // the pieces, so the interpolation error is at round-off level.
-CoefficientFit::CoefficientFit(CoefficientSet set) {
+CoefficientFit::CoefficientFit(CoefficientSet set, const CoefficientConstants& constants) {
   constexpr int m = degree + 1;
   Eigen::Matrix<double, m, m> vandermonde;
   Eigen::Matrix<double, m, 2> values;
@@ -50,7 +126,8 @@ CoefficientFit::CoefficientFit(CoefficientSet set) {
     for (int k = 0; k < m; ++k) {
       const double u = std::cos(pi * (k + 0.5) / m);
       for (int p = 0; p < m; ++p) vandermonde(k, p) = std::pow(u, p);
-      const TranslationalCoefficients c = translational_coefficients(set, 2 * std::atan((j + 0.5 * (u + 1)) / pieces));
+      const TranslationalCoefficients c =
+          translational_coefficients(set, 2 * std::atan((j + 0.5 * (u + 1)) / pieces), constants);
       values(k, 0) = c.lift;
       values(k, 1) = c.drag;
     }
@@ -109,14 +186,16 @@ SpanQuadrature span_quadrature(const Wing& wing, int n) {
   return q;
 }
 
-QuasiSteadyModel::QuasiSteadyModel(QuasiSteadyOptions o) : opt_(o), fit_(o.coefficients) {
+QuasiSteadyModel::QuasiSteadyModel(QuasiSteadyOptions o) : opt_(o), fit_(o.coefficients, o.constants) {
   if (!(opt_.rho > 0)) throw std::invalid_argument("quasi-steady model: fluid density must be > 0");
   if (opt_.blade_elements < 1) throw std::invalid_argument("quasi-steady model: blade_elements must be >= 1");
   if (opt_.samples_per_cycle < 1) throw std::invalid_argument("quasi-steady model: samples_per_cycle must be >= 1");
 }
 
 std::string QuasiSteadyModel::name() const {
-  return opt_.coefficients == CoefficientSet::robofly ? "quasi-steady (robofly)" : "quasi-steady (berman-wang)";
+  return opt_.coefficients == CoefficientSet::robofly       ? "quasi-steady (robofly)"
+         : opt_.coefficients == CoefficientSet::berman_wang ? "quasi-steady (berman-wang)"
+                                                            : "quasi-steady (table)";
 }
 
 WrenchHistory QuasiSteadyModel::run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
@@ -172,7 +251,7 @@ Wrench QuasiSteadyModel::wing_loads(const WingPose& pose, double x0, const SpanQ
   const double v0_nd = v0.dot(ndot), vs_nd = vs.dot(ndot), vc_nd = vc.dot(ndot);
 
   const double rho = opt_.rho;
-  const double c_rot = pi * (0.75 - x0);
+  const double c_rot = opt_.rotational_coefficient ? *opt_.rotational_coefficient : pi * (0.75 - x0);
   double f_c = 0, f_n = 0;              // force components along e_c and e_n
   double m_rc = 0, m_rn = 0, m_xn = 0;  // sums of r f_c, r f_n and x f_n (x: chordwise application point)
   for (std::size_t i = 0; i < span.r.size(); ++i) {
@@ -197,7 +276,7 @@ Wrench QuasiSteadyModel::wing_loads(const WingPose& pose, double x0, const SpanQ
       fc -= g * un;
       fn += g * uc;
     }
-    const double xq = (x0 - 0.25) * c;
+    const double xq = (x0 - opt_.centre_of_pressure) * c;
     f_c += fc;
     f_n += fn;
     m_rc += r * fc;
@@ -258,7 +337,7 @@ Wrench QuasiSteadyModel::wing_loads_jacobian(const WingPose& pose, double x0, co
   g_am.row(4).tail<3>() = ec.cross(ndot);
 
   const double rho = opt_.rho;
-  const double c_rot = pi * (0.75 - x0);
+  const double c_rot = opt_.rotational_coefficient ? *opt_.rotational_coefficient : pi * (0.75 - x0);
   double f_c = 0, f_n = 0, m_rc = 0, m_rn = 0, m_xn = 0;
   // Rows: d[f_c, f_n, m_rc, m_rn, m_xn] / d(inputs).
   Eigen::Matrix<double, 5, 5> d_in = Eigen::Matrix<double, 5, 5>::Zero(), d_am = Eigen::Matrix<double, 5, 5>::Zero();
@@ -295,7 +374,7 @@ Wrench QuasiSteadyModel::wing_loads_jacobian(const WingPose& pose, double x0, co
       e = -G * un;
       f = G * uc;
     }
-    const double xq = (x0 - 0.25) * c;
+    const double xq = (x0 - opt_.centre_of_pressure) * c;
     f_c += fc;
     f_n += fn;
     m_rc += r * fc;

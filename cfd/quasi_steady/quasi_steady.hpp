@@ -4,8 +4,10 @@
 // about the reference point O (core/configuration.hpp).
 #pragma once
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
+#include "core/aero_coefficients.hpp"
 #include "core/aero_model.hpp"
 #include "core/configuration.hpp"
 
@@ -14,6 +16,7 @@ namespace flapstab {
 enum class CoefficientSet {
   robofly,      // Dickinson, Lehmann & Sane 1999 fits (3D revolving wing, Re ~ 100)
   berman_wang,  // Berman & Wang 2007 thin-plate set (C_T = 1.678, C_D(0) = 0.07, C_D(pi/2) = 3.06)
+  table,        // user C_L(alpha), C_D(alpha) tables on [0, 90] deg (clamped cubic splines)
 };
 
 struct QuasiSteadyOptions {
@@ -23,20 +26,27 @@ struct QuasiSteadyOptions {
   bool rotational = true;   // Sane & Dickinson 2002 rotational circulation
   bool added_mass = true;   // non-circulatory (added-mass) normal force
   int samples_per_cycle = 128;
+  CoefficientConstants constants;
+  // Rotational circulation coefficient C_R (Gamma_rot = C_R c^2 omega_s); unset: pi (3/4 - x0), thin-aerofoil theory.
+  std::optional<double> rotational_coefficient;
+  // Where the translational and rotational forces act, fraction of the chord from the leading edge (0.25: the
+  // thin-aerofoil aerodynamic centre), independent of the pitch axis.
+  double centre_of_pressure = 0.25;
 };
 
 // Translational force coefficients at angle of attack alpha (rad, folded into [0, pi/2]).
 struct TranslationalCoefficients {
   double lift = 0, drag = 0;
 };
-TranslationalCoefficients translational_coefficients(CoefficientSet set, double alpha);
+TranslationalCoefficients translational_coefficients(CoefficientSet set, double alpha,
+                                                     const CoefficientConstants& constants = {});
 
 // translational_coefficients of one set as a piecewise polynomial in t = tan(alpha/2) in [0, 1], which the
 // blade elements get from their velocity components without a trigonometric call (the model's hot loop).
 // Interpolates the exact definition at Chebyshev points: |error| < 1e-14 (tests/cfd/test_quasi_steady.cpp).
 class CoefficientFit {
  public:
-  explicit CoefficientFit(CoefficientSet set);
+  explicit CoefficientFit(CoefficientSet set, const CoefficientConstants& constants = {});
   TranslationalCoefficients operator()(double t) const;
   // The coefficients and their derivatives d/dt (the same polynomials differentiated).
   TranslationalCoefficients operator()(double t, TranslationalCoefficients& slope) const;

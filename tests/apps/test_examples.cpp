@@ -1,6 +1,7 @@
 // The example cases in data/examples/ (one per feature, listed in docs/user-guide.md "Examples"): each runs as its
 // header says, and the guide lists every one of them.
 #include <gtest/gtest.h>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -75,6 +76,72 @@ TEST(Examples, HermiteKinematicsTrimLikeTheirFourierSeries) {
   for (std::size_t i = 0; i < 3; ++i)
     EXPECT_NEAR(double(h["trim"]["parameters"][i]["value"]), double(f["trim"]["parameters"][i]["value"]), 0.5)
         << f["trim"]["parameters"][i]["name"];
+}
+
+TEST(Examples, BermanWangAnglesTrimThroughTheirShape) {
+  // The stroke's K balances the weight (with the stroke and pitch means); the trimmed kinematics keep their form.
+  const nlohmann::json j = analyze("berman_wang_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+  EXPECT_EQ(j["trim"]["parameters"][0]["name"], "stroke_shape_k");
+  const nlohmann::json& stroke = j["trim"]["kinematics"]["right"]["stroke"];
+  EXPECT_EQ(stroke["type"], "berman-wang");
+  EXPECT_NEAR(double(stroke["shape_k"]), double(j["trim"]["parameters"][0]["value"]), 1e-12);
+}
+
+TEST(Examples, MarsGravityTrimsAtTheScaledFrequency) {
+  // Quasi-steady loads scale as n^2 at fixed angles, so the trimmed frequency scales as sqrt(g): the same case
+  // without [environment] (standard gravity) must trim at sqrt(9.80665 / 3.71) times the frequency, with the same
+  // means (analytic similarity; 1e-8 relative, the trim tolerance).
+  const nlohmann::json mars = analyze("mars_gravity_hawkmoth.toml");
+  std::string text = slurp(source + "/data/examples/mars_gravity_hawkmoth.toml");
+  const std::string env = "[environment]\ngravity_m_s2 = 3.71";
+  ASSERT_NE(text.find(env), std::string::npos);
+  text.replace(text.find(env), env.size(), "");
+  const nlohmann::json earth = trim(testing::write_temp("earth_gravity_hawkmoth.toml", text));
+  ASSERT_FALSE(mars.is_null() || earth.is_null());
+  const auto& pm = mars["trim"]["parameters"];
+  const auto& pe = earth["trim"]["parameters"];
+  EXPECT_EQ(pm[0]["name"], "frequency_hz");
+  EXPECT_NEAR(double(pe[0]["value"]) / double(pm[0]["value"]), std::sqrt(9.80665 / 3.71), 1e-8);
+  EXPECT_NEAR(double(pe[1]["value"]), double(pm[1]["value"]), 1e-6);
+  EXPECT_NEAR(double(pe[2]["value"]), double(pm[2]["value"]), 1e-6);
+}
+
+TEST(Examples, PolynomialPlanformSetsTheReferenceSpeed) {
+  // c ~ 1 + x - 1.8 x^2 (x = r/R): r2^2 / R^2 = (1/3 + 1/4 - 1.8/5) / (1 + 1/2 - 1.8/3) exactly, and the reference
+  // speed is U = 2 Phi n r2 (Phi the trimmed amplitude in rad) - to round-off (1e-12).
+  const nlohmann::json j = analyze("polynomial_planform_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  EXPECT_TRUE(j["trim"]["converged"].get<bool>());
+  const double r2 = std::sqrt((1.0 / 3 + 1.0 / 4 - 1.8 / 5) / (1 + 1.0 / 2 - 1.8 / 3)) * 0.0519;
+  const double phi = double(j["trim"]["parameters"][0]["value"]) * 3.14159265358979323846 / 180;
+  EXPECT_EQ(j["trim"]["parameters"][0]["name"], "stroke_amplitude_deg");
+  EXPECT_NEAR(double(j["derivatives"]["reference"]["U_m_s"]), 2 * phi * 26.1 * r2, 1e-12 * 2 * phi * 26.1 * r2);
+}
+
+TEST(Examples, CoefficientTableTrimsLikeTheSetItSamples) {
+  // The table samples the Berman-Wang forms every 10 deg: the clamped spline's error is at most h^4 max|f^(4)| / 27 =
+  // (10 deg)^4 x 16 x 1.678 / 27 = 9e-4, a relative lift error of 5e-4 at most, which moves the trimmed amplitude
+  // (Phi ~ C_L^(-1/2)) by at most 120 deg x 2.7e-4 = 0.03 deg: 0.05 deg stated for every parameter.
+  const nlohmann::json t = analyze("coefficient_table_hawkmoth.toml");
+  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
+  const std::string set = "coefficients = \"robofly\"";
+  ASSERT_NE(text.find(set), std::string::npos);
+  text.replace(text.find(set), set.size(), "coefficients = \"berman-wang\"");
+  const nlohmann::json b = trim(testing::write_temp("hawkmoth_berman_wang_set.toml", text));
+  ASSERT_FALSE(t.is_null() || b.is_null());
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_NEAR(double(t["trim"]["parameters"][i]["value"]), double(b["trim"]["parameters"][i]["value"]), 0.05)
+        << b["trim"]["parameters"][i]["name"];
+}
+
+TEST(Examples, PublishedRoboflyConstantsGiveTheDefaultTrimBitForBit) {
+  const nlohmann::json c = trim(source + "/data/examples/robofly_constants_hawkmoth.toml");
+  const nlohmann::json h = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(c.is_null() || h.is_null());
+  EXPECT_EQ(c["trim"]["parameters"], h["trim"]["parameters"]);
+  EXPECT_EQ(c["trim"]["residuals"], h["trim"]["residuals"]);
 }
 
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {

@@ -125,6 +125,21 @@ TEST(NsGeometry, MembraneWingAreaConvergesToMeanChordTimesSpan) {
   EXPECT_NEAR(wing_mesh(w, 10, 4).area() / table_area, 1.0, 1e-14);
 }
 
+// The constant polynomial planform is the rectangle: the same stations and chords, the same mesh vertex for vertex.
+TEST(NsGeometry, PolynomialWingMeshOfTheRectangle) {
+  Wing r = testing::test_insect().wing, p = r;
+  r.planform = Planform::rectangular;
+  p.planform = Planform::polynomial;
+  p.poly = {1.0};
+  const TriangleMesh a = wing_mesh(r, 12, 5), b = wing_mesh(p, 12, 5);
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  for (std::size_t i = 0; i < a.vertices.size(); ++i) EXPECT_EQ((a.vertices[i] - b.vertices[i]).norm(), 0.0);
+  // A tapered polynomial: the membrane's area is the trapezoidal rule of its chord on the uniform stations,
+  // second-order accurate; c/c_bar = 1.5 - x^2 (mean 1.5 - 1/3, normalised) on 80 stations: within 1e-4.
+  p.poly = {1.5 / (7.0 / 6.0), 0.0, -1.0 / (7.0 / 6.0)};
+  EXPECT_NEAR(wing_mesh(p, 80, 4).area() / p.area(), 1.0, 1e-4);
+}
+
 TEST(NsGeometry, MembraneWingPlanformFollowsChord) {
   const Wing w = testing::test_insect().wing;
   const TriangleMesh m = wing_mesh(w, 30, 6);

@@ -7,6 +7,7 @@
 // rectangular one.
 #include <gtest/gtest.h>
 #include <cmath>
+#include <iostream>
 #include "cfd/quasi_steady/quasi_steady.hpp"
 #include "core/configuration.hpp"
 #include "core/rotation.hpp"
@@ -143,6 +144,128 @@ TEST(QuasiSteadyCoefficients, FitReproducesDefinitions) {
       err = std::max({err, std::abs(a.lift - b.lift), std::abs(a.drag - b.drag)});
     }
     EXPECT_LT(err, 1e-14) << "set " << int(set);
+  }
+}
+
+// Coefficients as data ([aero.quasi_steady]): constants equal to the published ones change nothing (bit for bit), and
+// other constants enter the published forms.
+TEST(QuasiSteadyCoefficients, ConstantsEnterThePublishedForms) {
+  CoefficientConstants k;
+  k.robofly.lift_amplitude = 1.2;
+  k.robofly.drag_mean = 2.0;
+  k.berman_wang.c_t = 1.5;
+  k.berman_wang.c_d_0 = 0.1;
+  k.berman_wang.c_d_90 = 3.4;
+  const double a = 40 * deg;
+  const auto r = translational_coefficients(CoefficientSet::robofly, a, k);
+  auto fit = [](double x) { return 0.225 + 1.2 * std::sin((2.13 * x - 7.2) * deg); };
+  // With the end terms fit(0) cos^64 + fit(90) sin^64 (docs/theory/quasi-steady.md section 3).
+  EXPECT_NEAR(r.lift, fit(40) - fit(0) * std::pow(std::cos(a), 64) - fit(90) * std::pow(std::sin(a), 64), 1e-14);
+  EXPECT_NEAR(r.drag, 2.0 - 1.55 * std::cos((2.04 * 40 - 9.82) * deg), 1e-14);
+  const auto b = translational_coefficients(CoefficientSet::berman_wang, a, k);
+  EXPECT_NEAR(b.lift, 1.5 * std::sin(2 * a), 1e-14);
+  EXPECT_NEAR(b.drag, 0.1 * std::pow(std::cos(a), 2) + 3.4 * std::pow(std::sin(a), 2), 1e-14);
+  for (double x = 0; x <= 90; x += 0.5)
+    for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+      const auto d = translational_coefficients(set, x * deg), e = translational_coefficients(set, x * deg, {});
+      EXPECT_EQ(d.lift, e.lift);
+      EXPECT_EQ(d.drag, e.drag);
+    }
+}
+
+// A user table sampling a built-in set at 1 deg reproduces it to the accuracy of the clamped cubic spline. Its error is
+// largest in the end intervals, from the third-order end slopes (slope error <= h^3 max|f^(4)| / 4, giving at most
+// 4/27 h x that): h^4 max|f^(4)| / 27 with h = 1 deg = 0.01745 rad (h^4 = 9.3e-8). The Robofly end term
+// C_L(90) sin^64 alpha has max|f^(4)| ~ 0.103 x 3 x 64^2 = 1265 at 90 deg: bound 4.4e-6 (measured 4.2e-6); Berman-Wang's
+// C_T sin 2 alpha has max|f^(4)| = 16 C_T = 26.8: bound 9.3e-8 (measured 8.9e-8). The loads, linear in the coefficients, differ by at most the
+// coefficient error over the peak coefficient (~ 3) as a fraction of the peak force: 2e-6 stated for both sets.
+TEST(QuasiSteadyCoefficients, TableOfTheFitReproducesIt) {
+  for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+    QuasiSteadyOptions o;
+    o.rho = rho;
+    o.coefficients = CoefficientSet::table;
+    for (int i = 0; i <= 90; ++i) {
+      const auto c = translational_coefficients(set, i * deg);
+      o.constants.table.alpha_deg.push_back(i);
+      o.constants.table.lift.push_back(c.lift);
+      o.constants.table.drag.push_back(c.drag);
+    }
+    double err = 0;
+    for (int i = 0; i <= 9000; ++i) {
+      const double alpha = pi / 2 * i / 9000;
+      const auto a = translational_coefficients(CoefficientSet::table, alpha, o.constants),
+                 b = translational_coefficients(set, alpha);
+      err = std::max({err, std::abs(a.lift - b.lift), std::abs(a.drag - b.drag)});
+    }
+    EXPECT_LT(err, set == CoefficientSet::robofly ? 4.5e-6 : 9.5e-8) << "set " << int(set);
+    const QuasiSteadyModel table(o);
+    const Insect in = test_insect(Planform::elliptic, 0.3, 0.5);
+    const Kinematics kin = kinematics(hover_wing(), hover_wing(70, 0.1));
+    BodyMotion m;
+    m.velocity = Vec3(0.2, -0.1, 0.3);
+    m.rate = Vec3(1, 3, -2);
+    const WrenchHistory h = table.run(in, kin, m, {}), g = model(set).run(in, kin, m, {});
+    double peak = 0, diff = 0;
+    for (std::size_t k = 0; k < h.samples.size(); ++k) {
+      peak = std::max(peak, g.samples[k].total().force.norm());
+      diff = std::max({diff, (h.samples[k].total().force - g.samples[k].total().force).norm(),
+                       (h.samples[k].total().moment - g.samples[k].total().moment).norm() / R});
+    }
+    EXPECT_LT(diff, 2e-6 * peak) << "set " << int(set);
+  }
+}
+
+// The centre of pressure moves only the chordwise lever of the circulatory (translational + rotational) force: on a
+// rectangular wing without added mass, moving it from x1 to x2 (chord fractions from the LE) leaves every force
+// unchanged (bit for bit) and changes each wing's moment by (x1 - x2) c F_n (e_c x e_n), F_n its normal force.
+// The rotational coefficient replaces pi (3/4 - x0): given as that value nothing changes; 0 is rotational = false.
+TEST(QuasiSteadyCoefficients, CentreOfPressureAndRotationalCoefficient) {
+  const Insect in = test_insect(Planform::rectangular, 0.3, 0);
+  const Kinematics kin = kinematics(hover_wing(), hover_wing(70, 0.1));
+  const Configuration config(in, kin);
+  const SpanQuadrature span = span_quadrature(in.wing, 40);
+  BodyMotion m;
+  m.velocity = Vec3(0.2, -0.1, 0.3);
+  m.rate = Vec3(1, 3, -2);
+  QuasiSteadyOptions o;
+  o.rho = rho;
+  o.added_mass = false;
+  const QuasiSteadyModel quarter(o);
+  o.centre_of_pressure = 0.6;
+  const QuasiSteadyModel aft(o);
+  for (double t : {0.1, 0.37, 0.8}) {
+    const double time = t * kin.period();
+    const WrenchSample a = quarter.loads(config, span, time, m), b = aft.loads(config, span, time, m);
+    for (Side side : {Side::right, Side::left}) {
+      const Wrench& wa = side == Side::right ? a.right : a.left;
+      const Wrench& wb = side == Side::right ? b.right : b.left;
+      EXPECT_EQ((wa.force - wb.force).norm(), 0.0);
+      const WingPose pose = config.wing_pose(side, time);
+      const Vec3 ec = pose.axes.col(0), en = pose.axes.col(2);
+      const Vec3 expected = (0.25 - 0.6) * cbar * wa.force.dot(en) * ec.cross(en);
+      EXPECT_LT((wb.moment - wa.moment - expected).norm(), 1e-12 * wa.force.norm() * R);
+    }
+  }
+  QuasiSteadyOptions r;
+  r.rho = rho;
+  const QuasiSteadyModel plain(r);
+  r.rotational_coefficient = pi * (0.75 - 0.3);
+  const QuasiSteadyModel same(r);
+  r.rotational_coefficient = 0.0;
+  const QuasiSteadyModel zero(r);
+  r.rotational_coefficient.reset();
+  r.rotational = false;
+  const QuasiSteadyModel none(r);
+  for (double t : {0.1, 0.37, 0.8}) {
+    const Wrench p = plain.loads(config, span, t * kin.period(), m).total(),
+                 s = same.loads(config, span, t * kin.period(), m).total(),
+                 z = zero.loads(config, span, t * kin.period(), m).total(),
+                 n = none.loads(config, span, t * kin.period(), m).total();
+    EXPECT_EQ((p.force - s.force).norm(), 0.0);
+    EXPECT_EQ((p.moment - s.moment).norm(), 0.0);
+    EXPECT_EQ((z.force - n.force).norm(), 0.0);
+    EXPECT_EQ((z.moment - n.moment).norm(), 0.0);
+    EXPECT_GT((p.force - n.force).norm(), 1e-6 * p.force.norm());  // the rotational force is there
   }
 }
 
@@ -398,6 +521,45 @@ TEST(QuasiSteadyBodyMotion, BodyDragOnProjectedEllipses) {
   EXPECT_LE((s.body.force - f).norm(), 1e-12 * f.norm());
   EXPECT_LE((s.body.moment - config.body_centre().cross(f)).norm(), 1e-12 * f.norm() * R);
   EXPECT_LT(s.body.force.x(), 0);
+}
+
+// Polynomial planforms: the constant polynomial is the rectangle, chord for chord, so the loads are identical (bit
+// for bit: the same quadrature nodes, the same chords). A linear polynomial is a two-point table exactly: loads
+// equal to round-off (1e-13 of the peak force; the chords differ only in the last bits).
+TEST(QuasiSteadyPlanform, PolynomialReproducesRectangularAndLinearTable) {
+  const Kinematics kin = kinematics(hover_wing(), hover_wing(70, 0.1));
+  BodyMotion m;
+  m.velocity = Vec3(0.2, -0.1, 0.3);
+  m.rate = Vec3(1, 3, -2);
+  for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+    Insect rect = test_insect(Planform::rectangular, 0.3, 0.5), poly = rect;
+    poly.wing.planform = Planform::polynomial;
+    poly.wing.poly = {1.0};
+    const WrenchHistory a = model(set).run(rect, kin, m, {}), b = model(set).run(poly, kin, m, {});
+    ASSERT_EQ(a.samples.size(), b.samples.size());
+    for (std::size_t k = 0; k < a.samples.size(); ++k) {
+      const Wrench wa = a.samples[k].total(), wb = b.samples[k].total();
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_EQ(wa.force(i), wb.force(i));
+        EXPECT_EQ(wa.moment(i), wb.moment(i));
+      }
+      EXPECT_EQ(a.samples[k].power, b.samples[k].power);
+    }
+    // Linear taper from 1.6 c_bar at the root to 0.4 c_bar at the tip, as a polynomial and as a table.
+    Insect table = rect, linear = rect;
+    table.wing.planform = Planform::tabulated;
+    table.wing.table_r = {0.0, 1.0};
+    table.wing.table_c = {1.6, 0.4};
+    linear.wing.planform = Planform::polynomial;
+    linear.wing.poly = {1.6, -1.2};
+    const WrenchHistory t = model(set).run(table, kin, m, {}), l = model(set).run(linear, kin, m, {});
+    double peak = 0;
+    for (const auto& s : t.samples) peak = std::max(peak, s.total().force.norm());
+    for (std::size_t k = 0; k < t.samples.size(); ++k) {
+      EXPECT_LT((t.samples[k].total().force - l.samples[k].total().force).norm(), 1e-13 * peak);
+      EXPECT_LT((t.samples[k].total().moment - l.samples[k].total().moment).norm(), 1e-13 * peak * R);
+    }
+  }
 }
 
 TEST(QuasiSteadyModel, NameAndSampling) {

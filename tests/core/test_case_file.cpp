@@ -1,5 +1,7 @@
 // Tests for core/case_file: a valid case loads; each kind of bad input names the file and the key.
 #include <gtest/gtest.h>
+#include <array>
+#include <vector>
 #include "common/expect_error.hpp"
 #include "common/case_text.hpp"
 #include "core/case_file.hpp"
@@ -101,6 +103,141 @@ TEST(CaseFile, AbsurdValuesArePrintedShortInMessages) {
   EXPECT_NE(m.find("1e-300"), std::string::npos) << m;
   EXPECT_LT(m.size(), 400u) << m;
   EXPECT_NE(m.find("physically sensible"), std::string::npos) << m;
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// The valid case with Berman & Wang (2007, J Fluid Mech 582:153) angle forms instead of Fourier series.
+std::string berman_wang_case_text() {
+  std::string t = testing::valid_case_text();
+  t = testing::replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
+                       "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\n"
+                       "phase_deg = 180.0\n");
+  t = testing::replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
+                       "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\n"
+                       "shape_c = 2.4\n[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 4.0\n"
+                       "harmonic = 2\n");
+  return t;
+}
+
+TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
+  const std::string poly = "planform = \"polynomial\"\nchord_coefficients = [1.0, -0.5]";
+  const Case c = load_case(testing::write_temp("poly.toml", testing::replace(testing::valid_case_text(),
+                                                                               "planform = \"elliptic\"", poly)));
+  // 1 - x/2 has mean 3/4: normalised to (4/3)(1 - x/2), so that the area is mean_chord_m x R.
+  ASSERT_EQ(c.insect.wing.poly.size(), 2u);
+  EXPECT_NEAR(c.insect.wing.poly[0], 4.0 / 3.0, 1e-15);
+  EXPECT_NEAR(c.insect.wing.poly[1], -2.0 / 3.0, 1e-15);
+  const std::vector<std::array<const char*, 3>> bad = {
+      // 0.2 - x + x^2 dips to -0.05 at x = 1/2 although its area is positive
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [0.2, -1.0, 1.0]", "wing.chord_coefficients"},
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [1.0, -3.0]", "wing.chord_coefficients"},
+      {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = []", "wing.chord_coefficients"},
+      {"\nchord_coefficients = [1.0, -0.5]", "", "wing.chord_coefficients"},
+      {"planform = \"polynomial\"", "planform = \"elliptic\"", "wing.chord_coefficients"},
+  };
+  int i = 0;
+  for (const auto& [from, to, key] : bad) {
+    const std::string path = testing::write_temp("poly_bad" + std::to_string(i++) + ".toml",
+                                                 testing::replace(testing::replace(testing::valid_case_text(),
+                                                                                   "planform = \"elliptic\"", poly),
+                                                                  from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
+TEST(CaseFile, BermanWangAnglesLoad) {
+  const Case c = load_case(testing::write_temp("bw.toml", berman_wang_case_text()));
+  const BermanWangSeries* s = c.kinematics.right.stroke.berman_wang();
+  const BermanWangSeries* p = c.kinematics.right.pitch.berman_wang();
+  const BermanWangSeries* d = c.kinematics.right.deviation.berman_wang();
+  ASSERT_TRUE(s && p && d);
+  EXPECT_EQ(s->form, BermanWangSeries::Form::stroke);
+  EXPECT_DOUBLE_EQ(s->shape, 0.7);
+  EXPECT_DOUBLE_EQ(p->shape, 2.4);
+  EXPECT_EQ(d->harmonic, 2);
+  EXPECT_NEAR(c.kinematics.stroke_amplitude() / deg, 120.0, 1e-6);
+  // phase 180 deg: the stroke starts at -phi_m (downstroke first, as the Fourier case).
+  EXPECT_NEAR(c.kinematics.right.stroke.eval(0).f / deg, -60.0, 1e-12);
+  EXPECT_NEAR(c.kinematics.right.pitch.eval(0.25).f / deg, 35.0, 1e-12);
+  EXPECT_TRUE(c.kinematics.symmetric());
+}
+
+TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
+  const std::string base = berman_wang_case_text();
+  const std::vector<std::array<const char*, 3>> bad = {
+      {"shape_k = 0.7", "shape_k = 1.0", "kinematics.stroke.shape_k"},
+      {"shape_k = 0.7", "shape_k = 0.0", "kinematics.stroke.shape_k"},
+      {"shape_k = 0.7\n", "", "kinematics.stroke.shape_k"},
+      {"shape_c = 2.4", "shape_c = 0.0", "kinematics.pitch.shape_c"},
+      {"shape_c = 2.4", "shape_c = -1.0", "kinematics.pitch.shape_c"},
+      {"amplitude_deg = 60.0\n", "", "kinematics.stroke.amplitude_deg"},
+      {"harmonic = 2\n", "", "kinematics.deviation.harmonic"},
+      {"harmonic = 2", "harmonic = 0", "kinematics.deviation.harmonic"},
+      {"shape_k = 0.7", "shape_c = 0.7", "kinematics.stroke.shape_k"},  // the pitch's key on the stroke
+      {"harmonic = 2", "harmonic = 2\nshape_k = 0.5", "kinematics.deviation.shape_k"},
+  };
+  int i = 0;
+  for (const auto& [from, to, key] : bad) {
+    const std::string path = testing::write_temp("bw_bad" + std::to_string(i++) + ".toml", testing::replace(base, from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// [aero.quasi_steady] constants: each set's sub-table only with that set, ranges, tables from 0 to 90 deg.
+TEST(CaseFile, QuasiSteadyConstantsBadInputNamesFileAndKey) {
+  const std::string base = testing::valid_case_text();
+  const std::string table = testing::replace(base, "coefficients = \"robofly\"\nblade_elements = 40\n",
+                                             "coefficients = \"table\"\nblade_elements = 40\n[aero.quasi_steady.table]\n"
+                                             "alpha_deg = [0.0, 30.0, 60.0, 90.0]\nlift = [0.0, 1.4, 1.4, 0.0]\n"
+                                             "drag = [0.1, 1.0, 2.4, 3.0]\n");
+  const Case ok = load_case(testing::write_temp("qs_table_ok.toml", table));
+  EXPECT_EQ(ok.aero.quasi_steady.constants.table.drag.size(), 4u);
+  const std::string bw = testing::replace(base, "coefficients = \"robofly\"\nblade_elements = 40\n",
+                                          "coefficients = \"berman-wang\"\nblade_elements = 40\n"
+                                          "[aero.quasi_steady.berman-wang]\nc_t = 1.678\nc_d_0 = 0.07\nc_d_90 = 3.06\n");
+  EXPECT_NO_THROW(load_case(testing::write_temp("qs_bw_ok.toml", bw)));
+  struct Bad {
+    std::string text, key;
+  };
+  const std::vector<Bad> bad = {
+      {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 30.0, 60.0, 80.0]"),
+       "aero.quasi_steady.table.alpha_deg"},
+      {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 60.0, 30.0, 90.0]"),
+       "aero.quasi_steady.table.alpha_deg"},
+      {testing::replace(table, "drag = [0.1, 1.0, 2.4, 3.0]", "drag = [0.1, -1.0, 2.4, 3.0]"),
+       "aero.quasi_steady.table.drag"},
+      {testing::replace(table, "lift = [0.0, 1.4, 1.4, 0.0]", "lift = [0.0, 1.4, 0.0]"), "aero.quasi_steady.table.lift"},
+      {testing::replace(table, "[aero.quasi_steady.table]\n", "[aero.quasi_steady.tabel]\n"), "aero.quasi_steady.table"},
+      {testing::replace(bw, "c_t = 1.678", "c_t = -1.0"), "aero.quasi_steady.berman-wang.c_t"},
+      {testing::replace(bw, "c_t = 1.678", "c_l = 1.678"), "aero.quasi_steady.berman-wang.c_l"},
+      {testing::replace(bw, "coefficients = \"berman-wang\"", "coefficients = \"robofly\""),
+       "aero.quasi_steady.berman-wang"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\n[aero.quasi_steady.robofly]\ndrag_mean = 1.0\n"),
+       "aero.quasi_steady.robofly.drag_mean"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\ncentre_of_pressure_chord_fraction = 1.5\n"),
+       "aero.quasi_steady.centre_of_pressure_chord_fraction"},
+      {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\nrotational_coefficient = 50.0\n"),
+       "aero.quasi_steady.rotational_coefficient"},
+  };
+  int i = 0;
+  for (const auto& b : bad) {
+    const std::string path = testing::write_temp("qs_bad" + std::to_string(i++) + ".toml", b.text);
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, b.key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << b.key << ": " << what;
+  }
 }
 
 }  // namespace

@@ -60,6 +60,13 @@ TEST(Eom, FreeFallAcceleratesAtG) {
   EXPECT_NEAR(a_inertial.z(), 9.81, 1e-12);
   EXPECT_NEAR(a_inertial.x(), 0.0, 1e-12);
   EXPECT_NEAR(dx.segment<3>(6).norm(), 0.0, 1e-12);
+  // Without an explicit g the equations take the insect's ([environment] gravity_m_s2): Mars, 3.71 m/s^2.
+  Insect mars = ins;
+  mars.gravity = 3.71;
+  const Configuration cfg_mars(mars, k);
+  const Vec3 a_mars = euler321(0, 0.3, 0) * body_state_derivative(cfg_mars, 0.0, x, Wrench{}).segment<3>(3);
+  EXPECT_NEAR(a_mars.z(), 3.71, 1e-12);
+  EXPECT_NEAR(a_mars.x(), 0.0, 1e-12);
 }
 
 TEST(Eom, MasslessWingsGiveEulerRigidBodyEquations) {

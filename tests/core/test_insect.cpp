@@ -35,6 +35,20 @@ TEST(Insect, RectangularAndTabulatedAgree) {
   EXPECT_NEAR(t.chord(0.4 * t.length), t.mean_chord, 1e-15);
 }
 
+// Polynomial chord c/c_bar = sum a_k (r/R)^k, normalised to unit mean: the triangle 1 - r/R becomes 2 (1 - r/R);
+// int r c = R^2/6 and int r^2 c = R^3/12 over int c = R/2 give r1 = R/3 and r2 = R/sqrt(6) (exact moments).
+TEST(Insect, PolynomialPlanformMoments) {
+  Wing w = wing(Planform::polynomial);
+  w.poly = {2.0, -2.0};
+  EXPECT_NEAR(w.radius_of_moment(1), w.length / 3, 1e-14);
+  EXPECT_NEAR(w.radius_of_moment(2), w.length / std::sqrt(6.0), 1e-14);
+  EXPECT_NEAR(w.chord(0.25 * w.length), 1.5 * w.mean_chord, 1e-15);
+  EXPECT_EQ(w.chord(w.length * 1.01), 0.0);
+  w.poly = {1.0};  // the rectangle, exactly
+  const Wing r = wing(Planform::rectangular);
+  for (double x : {0.0, 0.3, 0.77, 1.0}) EXPECT_EQ(w.chord(x * w.length), r.chord(x * r.length));
+}
+
 // Uniform rectangular plate, pitch axis at x0 c from the LE: centroid at (x0 - 1/2) c chordwise and
 // R/2 spanwise; Ixx (about the chord axis through the hinge) = m R^2 / 3; Iyy = m c^2 (x0^3 + (1-x0)^3) / 3.
 TEST(Insect, PlateMassProperties) {

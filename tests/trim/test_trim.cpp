@@ -1,5 +1,7 @@
 // Tests for trim/: the cycle-averaged hover trim (Ipopt and NLopt), its parameters and its failures.
 #include <gtest/gtest.h>
+#include <cmath>
+#include <vector>
 #include "cfd/aero_factory.hpp"
 #include "common/case_text.hpp"
 #include "core/errors.hpp"
@@ -90,6 +92,140 @@ TEST(TrimParameters, InitialValuesReproduceTheBaseAndAmplitudesScale) {
   EXPECT_NEAR(exact_peak_to_peak(k.right.stroke) / deg, 100.0, 1e-9);
   EXPECT_NEAR(k.left.stroke.mean() / deg, 5.0, 1e-12);
   EXPECT_NEAR(k.right.pitch.mean() / deg, 95.0, 1e-12);
+}
+
+// Berman & Wang (2007) angle forms: their shape and phase parameters are trim parameters.
+std::string berman_wang_trim_text(const std::string& parameters) {
+  std::string t = valid_case_text();
+  t = replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
+              "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\nphase_deg = 180.0\n");
+  t = replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
+              "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\nshape_c = 2.4\n"
+              "[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 0.0\nharmonic = 2\n");
+  // Phi = 100 deg: the squarer stroke carries the weight at a smaller amplitude than the cosine's 120 deg.
+  t = replace(t, "amplitude_deg = 60.0", "amplitude_deg = 50.0");
+  return t.substr(0, t.find("[[trim.parameter]]")) + parameters;
+}
+
+TEST(TrimParameters, BermanWangParametersSetTheirForms) {
+  const Case c = load_case(write_temp("bw_par.toml", berman_wang_trim_text(R"([[trim.parameter]]
+name = "stroke_shape_k"
+lower = 0.1
+upper = 0.95
+[[trim.parameter]]
+name = "pitch_shape_c"
+lower = 0.5
+upper = 10.0
+[[trim.parameter]]
+name = "pitch_phase_deg"
+lower = -30.0
+upper = 30.0
+[[trim.parameter]]
+name = "deviation_amplitude_deg"
+lower = 0.0
+upper = 20.0
+[[trim.parameter]]
+name = "deviation_phase_deg"
+lower = -90.0
+upper = 90.0
+[[trim.parameter]]
+name = "stroke_amplitude_deg"
+lower = 60.0
+upper = 170.0
+)")));
+  const TrimParameterization p(c.kinematics, c.trim.parameters, c.path);
+  const std::vector<double> expected0 = {0.7, 2.4, 0.0, 0.0, 0.0, 100.0};
+  for (std::size_t i = 0; i < expected0.size(); ++i) EXPECT_NEAR(p.initial()[i], expected0[i], 1e-12) << i;
+  EXPECT_EQ(TrimParameterization::unit("stroke_shape_k"), "1");
+  const Kinematics k = p.apply({0.4, 5.0, 10.0, 8.0, 20.0, 100.0});
+  for (const WingAngles* w : {&k.right, &k.left}) {
+    EXPECT_DOUBLE_EQ(w->stroke.berman_wang()->shape, 0.4);
+    EXPECT_DOUBLE_EQ(w->pitch.berman_wang()->shape, 5.0);
+    EXPECT_NEAR(w->pitch.berman_wang()->phase / deg, 10.0, 1e-12);
+    EXPECT_NEAR(w->deviation.berman_wang()->amplitude / deg, 4.0, 1e-12);  // half the peak-to-peak
+    EXPECT_NEAR(w->deviation.berman_wang()->phase / deg, 20.0, 1e-12);
+    EXPECT_NEAR(exact_peak_to_peak(w->stroke) / deg, 100.0, 1e-12);
+  }
+}
+
+TEST(TrimParameters, BermanWangParameterOfAFourierAngleIsAnInputError) {
+  const std::string text = replace(valid_case_text(), "name = \"pitch_mean_deg\"", "name = \"pitch_shape_c\"");
+  const Case c = load_case(write_temp("bw_par_bad.toml", text));
+  EXPECT_THROW(TrimParameterization(c.kinematics, c.trim.parameters, c.path), InputError);
+  const Case k = load_case(write_temp("bw_par_bad_k.toml", berman_wang_trim_text(R"([[trim.parameter]]
+name = "stroke_shape_k"
+lower = 0.1
+upper = 1.0
+)")));
+  try {
+    TrimParameterization(k.kinematics, k.trim.parameters, k.path);
+    ADD_FAILURE() << "K bound at 1 accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.key(), "trim.parameter[0].lower");
+  }
+}
+
+// A hover trim through the shape of the Berman-Wang stroke: K (with the stroke and pitch means) balances the
+// weight and the pitching moment to the trim's acceptance (1e-8 of the weight and of weight x R).
+TEST(Trim, BermanWangShapeIsATrimParameter) {
+  const Case c = load_case(write_temp("bw_trim.toml", berman_wang_trim_text(R"([[trim.parameter]]
+name = "stroke_shape_k"
+lower = 0.05
+upper = 0.98
+[[trim.parameter]]
+name = "stroke_mean_deg"
+lower = -40.0
+upper = 40.0
+[[trim.parameter]]
+name = "pitch_mean_deg"
+lower = 60.0
+upper = 120.0
+)")));
+  const auto model = make_aero_model(c);
+  const TrimResult t = trim_hover(c, *model);
+  ASSERT_TRUE(t.converged) << t.message;
+  EXPECT_LT(t.relative_force_residual, 1e-8);
+  EXPECT_LT(t.relative_moment_residual, 1e-8);
+  EXPECT_NE(t.parameters[0].value, 0.7);
+}
+
+// [environment] gravity_m_s2: doubling gravity doubles the weight the trim balances. Every quasi-steady load at fixed
+// wing angles scales as the frequency squared (translational ~ U^2, rotational ~ alphadot U, added mass ~ dU/dt; the
+// body at rest), so the trim through the frequency (with the stroke and pitch means) must land on sqrt(2) times the
+// frequency with the same means - to the trim's tolerance (analytic similarity; 1e-8 relative here).
+TEST(Trim, DoubledGravityNeedsTheWeightDoublingForce) {
+  const std::string base = replace(replace(valid_case_text(), "name = \"stroke_amplitude_deg\"\nlower = 60.0\nupper = 170.0",
+                                           "name = \"frequency_hz\"\nlower = 10.0\nupper = 80.0"),
+                                   "[fluid]\n", "[environment]\ngravity_m_s2 = G\n\n[fluid]\n");
+  auto trimmed = [&](const std::string& g) {
+    const Case c = load_case(write_temp("gravity_" + g + ".toml", replace(base, "gravity_m_s2 = G", "gravity_m_s2 = " + g)));
+    const auto model = make_aero_model(c);
+    const TrimResult t = trim_hover(c, *model);
+    EXPECT_TRUE(t.converged) << t.message;
+    return t;
+  };
+  const TrimResult one = trimmed("9.80665"), two = trimmed("19.6133");
+  ASSERT_EQ(one.parameters[0].name, "frequency_hz");
+  EXPECT_NEAR(two.weight, 2 * one.weight, 1e-15 * two.weight);
+  EXPECT_NEAR(two.parameters[0].value / one.parameters[0].value, std::sqrt(2.0), 1e-8);
+  EXPECT_NEAR(two.parameters[1].value, one.parameters[1].value, 1e-6);  // stroke mean, deg
+  EXPECT_NEAR(two.parameters[2].value, one.parameters[2].value, 1e-6);  // pitch mean, deg
+  EXPECT_LT(two.relative_force_residual, 1e-8);
+}
+
+TEST(Trim, GravityOutsideItsRangeIsAnInputError) {
+  for (const char* g : {"0.0", "-9.8", "9806.65"}) {
+    const std::string path = write_temp("gravity_bad.toml", replace(valid_case_text(), "[fluid]\n",
+                                                                     std::string("[environment]\ngravity_m_s2 = ") + g +
+                                                                         "\n[fluid]\n"));
+    try {
+      load_case(path);
+      ADD_FAILURE() << "gravity " << g << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.key(), "environment.gravity_m_s2");
+      EXPECT_EQ(e.file(), path);
+    }
+  }
 }
 
 }  // namespace
