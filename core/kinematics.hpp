@@ -33,12 +33,20 @@ struct Kinematics {
   double stroke_plane = 0;    // beta (rad): stroke-plane inclination from the stability x-y plane, positive nose-up
   double body_angle = 0;      // chi (rad): body long axis above the stability x axis, positive nose-up
   WingAngles right, left;     // left uses the same conventions as right (mirror-image definitions)
+  // The hind pair of a four-winged insect ([kinematics.hind]): its own angle histories in the same stroke plane,
+  // evaluated hind_phase cycles ahead of the fore pair (tau_hind = tau + hind_phase).
+  bool has_hind = false;
+  WingAngles hind_right, hind_left;
+  double hind_phase = 0;
 
   double period() const { return 1.0 / frequency_hz; }
   const WingAngles& wing(Side s) const { return s == Side::right ? right : left; }
   WingAngles& wing(Side s) { return s == Side::right ? right : left; }
+  const WingAngles& wing(Side s, Pair p) const {
+    return p == Pair::fore ? wing(s) : (s == Side::right ? hind_right : hind_left);
+  }
   // Angles of one wing at time t (s).
-  WingAngleState angles(Side s, double t) const;
+  WingAngleState angles(Side s, double t, Pair p = Pair::fore) const;
   // True when left and right angle histories agree at every sampled phase (to 1e-14 rad).
   bool symmetric() const;
   // Stroke amplitude Phi (rad, peak to peak), the mean of the two wings. For revolving wings, half the
