@@ -72,6 +72,7 @@ json kinematics_json(const Kinematics& k) {
   json out = {{"frequency_hz", k.frequency_hz},
           {"stroke_plane_deg", k.stroke_plane / deg},
           {"body_angle_deg", k.body_angle / deg},
+          {"stroke_plane_reference", k.stroke_plane_on_body ? "body" : "horizontal"},
           {"stroke_amplitude_deg", k.stroke_amplitude() / deg},
           {"right", wing(k.right)},
           {"left", wing(k.left)}};

@@ -359,6 +359,9 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   k.body_angle = s.number("body_angle_deg", "a number in degrees") * deg;
   if (std::abs(k.stroke_plane) > 90 * deg) s.fail("stroke_plane_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
   if (std::abs(k.body_angle) > 90 * deg) s.fail("body_angle_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
+  // "horizontal": stroke_plane_deg from the stability x-y plane (the stroke plane stays put when the body pitches);
+  // "body": from the body long axis, the stroke plane fixed to the body.
+  k.stroke_plane_on_body = s.string("stroke_plane_reference", false, "horizontal", {"horizontal", "body"}) == "body";
   if (s.string("type", false, "flapping", {"flapping", "revolving"}) == "revolving") {
     // Revolving wings: constant stroke velocity (one revolution per cycle, towards the head at the
     // lateral position), fixed pitch = incidence, no deviation; the left wing mirrors the right.

@@ -21,7 +21,7 @@ void right_wing_rotation(const WingAngleState& a, Mat3& R, Vec3& w, Vec3& wd) {
 }  // namespace
 
 Configuration::Configuration(const Insect& insect, const Kinematics& kin)
-    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)) {
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane_in_stability())) {
   if (insect.hind_wing.has_value() != kin.has_hind)
     throw std::invalid_argument(insect.hind_wing ? "a four-winged insect needs kinematics for its hind pair"
                                                  : "hind-pair kinematics for an insect without a hind pair");
@@ -40,7 +40,7 @@ Configuration::Configuration(const Insect& insect, const Kinematics& kin)
 }
 
 Configuration::Configuration(const Insect& insect, const Kinematics& kin, const Vec3& reference_point)
-    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)), o_(reference_point) {
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane_in_stability())), o_(reference_point) {
   if (insect.hind_wing.has_value() != kin.has_hind)
     throw std::invalid_argument(insect.hind_wing ? "a four-winged insect needs kinematics for its hind pair"
                                                  : "hind-pair kinematics for an insect without a hind pair");

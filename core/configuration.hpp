@@ -3,7 +3,8 @@
 // Stability frame S (the frame of every wrench and derivative): body-fixed, origin at the reference
 // point O = the wingbeat-mean centre of mass of the whole insect, x forward and horizontal at trim,
 // y right, z down. The anatomical frame A is S pitched nose-up by the body angle chi; each wing's
-// stroke-plane frame P is S pitched nose-up by the stroke-plane angle beta.
+// stroke-plane frame P is S pitched nose-up by the stroke-plane angle beta (by chi + beta when the stroke plane is
+// fixed to the body, Kinematics::stroke_plane_on_body).
 // Right wing orientation (wing frame -> P): Rz(-phi) Rx(-theta) Ry(alpha); the left wing is the
 // mirror image in the x-z plane (positions and velocities map by M = diag(1,-1,1), angular
 // velocities by -M).

@@ -32,6 +32,11 @@ struct Kinematics {
   double frequency_hz = 0;    // wingbeat frequency n
   double stroke_plane = 0;    // beta (rad): stroke-plane inclination from the stability x-y plane, positive nose-up
   double body_angle = 0;      // chi (rad): body long axis above the stability x axis, positive nose-up
+  // When true ([kinematics] stroke_plane_reference = "body"), stroke_plane is measured from the body long axis, so the
+  // stroke plane turns with the body (a body-angle change leaves the wing motion relative to the body unchanged).
+  bool stroke_plane_on_body = false;
+  // The stroke plane's inclination from the stability x-y plane (rad), whichever its reference.
+  double stroke_plane_in_stability() const { return stroke_plane + (stroke_plane_on_body ? body_angle : 0.0); }
   WingAngles right, left;     // left uses the same conventions as right (mirror-image definitions)
   // The hind pair of a four-winged insect ([kinematics.hind]): its own angle histories in the same stroke plane,
   // evaluated hind_phase cycles ahead of the fore pair (tau_hind = tau + hind_phase).

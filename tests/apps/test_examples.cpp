@@ -166,6 +166,18 @@ TEST(Examples, FourWingsOfTwoIdenticalPairsTrimAtOneOverSqrtTwo) {
   EXPECT_TRUE(four["trim"]["kinematics"].contains("hind"));
 }
 
+TEST(Examples, BodyFixedStrokePlaneGivesTheSameWingbeat) {
+  // -49.3 deg from the body axis at a 34.3 deg body angle is the hawkmoth's -15 deg from the horizontal: the same
+  // trim (1e-8, the trim tolerance; the two stroke-plane rotations differ in the last bits only).
+  const nlohmann::json b = analyze("body_stroke_plane_hawkmoth.toml");
+  const nlohmann::json h = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(b.is_null() || h.is_null());
+  EXPECT_EQ(b["trim"]["kinematics"]["stroke_plane_reference"], "body");
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_NEAR(double(b["trim"]["parameters"][i]["value"]), double(h["trim"]["parameters"][i]["value"]), 1e-8)
+        << h["trim"]["parameters"][i]["name"];
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

@@ -297,3 +297,23 @@ TEST(CaseFile, FourWingsBadInputNamesFileAndKey) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+TEST(CaseFile, StrokePlaneReference) {
+  const Case h = load_case(testing::write_temp("spr_h.toml", testing::valid_case_text()));
+  EXPECT_FALSE(h.kinematics.stroke_plane_on_body);
+  const Case b = load_case(testing::write_temp(
+      "spr_b.toml", testing::replace(testing::valid_case_text(), "stroke_plane_deg = 0.0",
+                                     "stroke_plane_deg = -40.0\nstroke_plane_reference = \"body\"")));
+  EXPECT_TRUE(b.kinematics.stroke_plane_on_body);
+  EXPECT_NEAR(b.kinematics.stroke_plane_in_stability(), 0.0, 1e-15);  // -40 + body angle 40
+  const std::string path = testing::write_temp(
+      "spr_bad.toml", testing::replace(testing::valid_case_text(), "stroke_plane_deg = 0.0",
+                                       "stroke_plane_deg = 0.0\nstroke_plane_reference = \"thorax\""));
+  testing::expect_input_error([&] { load_case(path); }, "kinematics.stroke_plane_reference", path);
+}
+
+}  // namespace
+}  // namespace flapstab
