@@ -7,7 +7,6 @@
 // rectangular one.
 #include <gtest/gtest.h>
 #include <cmath>
-#include <iostream>
 #include "cfd/quasi_steady/quasi_steady.hpp"
 #include "core/configuration.hpp"
 #include "core/rotation.hpp"
