@@ -69,12 +69,17 @@ json kinematics_json(const Kinematics& k) {
   auto wing = [&](const WingAngles& w) {
     return json{{"stroke", angle(w.stroke)}, {"deviation", angle(w.deviation)}, {"pitch", angle(w.pitch)}};
   };
-  return {{"frequency_hz", k.frequency_hz},
+  json out = {{"frequency_hz", k.frequency_hz},
           {"stroke_plane_deg", k.stroke_plane / deg},
           {"body_angle_deg", k.body_angle / deg},
+          {"stroke_plane_reference", k.stroke_plane_on_body ? "body" : "horizontal"},
           {"stroke_amplitude_deg", k.stroke_amplitude() / deg},
           {"right", wing(k.right)},
           {"left", wing(k.left)}};
+  if (k.has_hind) {
+    out["hind"] = {{"phase_deg", k.hind_phase * 360}, {"right", wing(k.hind_right)}, {"left", wing(k.hind_left)}};
+  }
+  return out;
 }
 
 std::optional<StrokeIncidence> mid_stroke_incidence(const Kinematics& k) {

@@ -13,6 +13,9 @@ namespace flapstab {
 Case revolving_equivalent(const Case& flapping, const Kinematics& trimmed) {
   Case c = flapping;
   c.path = flapping.path + " (equivalent revolving-wing flyer)";
+  if (flapping.insect.hind_wing)
+    throw InputError(flapping.path, "hind_wing", "the revolving-wing equivalent is defined for one wing pair",
+                     "a two-winged insect for the revolving-wing comparison");
   Kinematics& k = c.kinematics;
   k = trimmed;
   // Mean |dphi/dt| of a flapping stroke = 2 Phi n; a revolution per cycle sweeps 2 pi n.

@@ -24,7 +24,7 @@ MassProperties mass_properties(const Insect& insect, const Kinematics& kin) {
   Mat3 J = Mat3::Zero();
   for (int i = 0; i < n; ++i) {
     const MassState ms = config.mass_state(kin.period() * i / n);
-    for (const PartMass* p : {&ms.body, &ms.right, &ms.left})
+    for (const PartMass* p : ms.parts())
       J += p->mass * (p->r.squaredNorm() * Mat3::Identity() - p->r * p->r.transpose()) + p->inertia;
   }
   J /= n;

@@ -13,7 +13,7 @@ InstantaneousAero::InstantaneousAero(const AeroModel& model, const Insect& insec
                      "model = \"quasi-steady\"");
   qs_ = dynamic_cast<const QuasiSteadyModel*>(&model);
   config_ = std::make_unique<Configuration>(insect_, kin_);
-  if (qs_) span_ = span_quadrature(insect_.wing, qs_->options().blade_elements);
+  if (qs_) span_ = span_quadrature(insect_, qs_->options().blade_elements);
 }
 
 Wrench InstantaneousAero::operator()(double t, const BodyMotion& motion) const {

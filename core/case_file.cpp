@@ -359,6 +359,9 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
   k.body_angle = s.number("body_angle_deg", "a number in degrees") * deg;
   if (std::abs(k.stroke_plane) > 90 * deg) s.fail("stroke_plane_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
   if (std::abs(k.body_angle) > 90 * deg) s.fail("body_angle_deg", "outside [-90, 90]", "an angle in [-90, 90] deg");
+  // "horizontal": stroke_plane_deg from the stability x-y plane (the stroke plane stays put when the body pitches);
+  // "body": from the body long axis, the stroke plane fixed to the body.
+  k.stroke_plane_on_body = s.string("stroke_plane_reference", false, "horizontal", {"horizontal", "body"}) == "body";
   if (s.string("type", false, "flapping", {"flapping", "revolving"}) == "revolving") {
     // Revolving wings: constant stroke velocity (one revolution per cycle, towards the head at the
     // lateral position), fixed pitch = incidence, no deviation; the left wing mirrors the right.
@@ -381,6 +384,22 @@ Kinematics parse_kinematics(Section s, const std::string& dir) {
     l.reject_unknown();
   } else {
     k.left = k.right;
+  }
+  if (s.has("hind")) {
+    // [kinematics.hind]: the hind pair's angles (same keys as the fore pair's), phase_deg ahead of the fore pair,
+    // [kinematics.hind.left] for an asymmetric hind pair.
+    Section h = s.sub("hind", true);
+    k.has_hind = true;
+    k.hind_right = parse_wing_angles(h, dir, nullptr);
+    k.hind_phase = h.number_or("phase_deg", 0.0, "the hind pair's phase lead in degrees of the wingbeat") / 360.0;
+    if (h.has("left")) {
+      Section l = h.sub("left", true);
+      k.hind_left = parse_wing_angles(l, dir, &k.hind_right);
+      l.reject_unknown();
+    } else {
+      k.hind_left = k.hind_right;
+    }
+    h.reject_unknown();
   }
   s.reject_unknown();
   return k;
@@ -558,7 +577,15 @@ Case load_case(const std::string& path) {
 
   c.insect.body = parse_body(top.sub("body", true));
   c.insect.wing = parse_wing(top.sub("wing", true));
+  if (top.has("hind_wing")) c.insect.hind_wing = parse_wing(top.sub("hind_wing", true));
   c.kinematics = parse_kinematics(top.sub("kinematics", true), dir);
+  // A hind pair needs both its wing ([hind_wing]: planform, hinge, mass) and its kinematics ([kinematics.hind]).
+  if (c.insect.hind_wing && !c.kinematics.has_hind)
+    throw InputError(path, "kinematics.hind", "missing for the [hind_wing] pair",
+                     "a [kinematics.hind] table with the hind pair's stroke and pitch");
+  if (c.kinematics.has_hind && !c.insect.hind_wing)
+    throw InputError(path, "hind_wing", "missing section for the [kinematics.hind] pair",
+                     "a [hind_wing] table (length_m, mean_chord_m, planform, mass_kg, hinge_m, ...)");
 
   Section fluid = top.sub("fluid", false);
   c.fluid.density = fluid.positive_or("density_kg_m3", 1.225, "kg/m^3");
@@ -585,6 +612,9 @@ Case load_case(const std::string& path) {
   qs.reject_unknown();
   c.aero.cfd = parse_cfd(aero.sub("cfd", false));
   aero.reject_unknown();
+  if (c.insect.hind_wing && c.aero.model == "cfd")
+    throw InputError(path, "aero.model", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
+                     "model = \"quasi-steady\" for a hind pair");
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});

@@ -1,6 +1,7 @@
 // Frames, wing poses and mass state of the insect at time t.
 #include "core/configuration.hpp"
 #include "core/rotation.hpp"
+#include <stdexcept>
 
 namespace flapstab {
 
@@ -20,36 +21,48 @@ void right_wing_rotation(const WingAngleState& a, Mat3& R, Vec3& w, Vec3& wd) {
 }  // namespace
 
 Configuration::Configuration(const Insect& insect, const Kinematics& kin)
-    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)) {
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane_in_stability())) {
+  if (insect.hind_wing.has_value() != kin.has_hind)
+    throw std::invalid_argument(insect.hind_wing ? "a four-winged insect needs kinematics for its hind pair"
+                                                 : "hind-pair kinematics for an insect without a hind pair");
   // O = cycle-mean CoM of body + wings, measured from the body CoM (trapezoid rule: spectral for periodic data).
   constexpr int n = 256;
   Vec3 sum = Vec3::Zero();
   for (int i = 0; i < n; ++i) {
     const double t = kin.period() * i / n;
-    sum += insect.wing.mass * (wing_cg_about_body_cg(Side::right, t) + wing_cg_about_body_cg(Side::left, t));
+    sum += insect.wing.mass * (wing_cg_about_body_cg(Side::right, t, Pair::fore) +
+                               wing_cg_about_body_cg(Side::left, t, Pair::fore));
+    if (insect.hind_wing)
+      sum += insect.hind_wing->mass * (wing_cg_about_body_cg(Side::right, t, Pair::hind) +
+                                       wing_cg_about_body_cg(Side::left, t, Pair::hind));
   }
   o_ = sum / n / insect.total_mass();
 }
 
 Configuration::Configuration(const Insect& insect, const Kinematics& kin, const Vec3& reference_point)
-    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane)), o_(reference_point) {}
+    : insect_(insect), kin_(kin), r_sa_(rot_y(kin.body_angle)), r_sp_(rot_y(kin.stroke_plane_in_stability())), o_(reference_point) {
+  if (insect.hind_wing.has_value() != kin.has_hind)
+    throw std::invalid_argument(insect.hind_wing ? "a four-winged insect needs kinematics for its hind pair"
+                                                 : "hind-pair kinematics for an insect without a hind pair");
+}
 
-Vec3 Configuration::wing_cg_about_body_cg(Side s, double t) const {
+Vec3 Configuration::wing_cg_about_body_cg(Side s, double t, Pair pair) const {
   Mat3 R;
   Vec3 w, wd;
-  right_wing_rotation(kin_.angles(s, t), R, w, wd);
-  const Vec3 local = r_sa_ * insect_.wing.hinge + r_sp_ * R * insect_.wing.mass_centre;
+  right_wing_rotation(kin_.angles(s, t, pair), R, w, wd);
+  const Wing& wing = insect_.pair_wing(pair);
+  const Vec3 local = r_sa_ * wing.hinge + r_sp_ * R * wing.mass_centre;
   return s == Side::right ? local : Vec3(mirror_y() * local);
 }
 
-WingPose Configuration::wing_pose(Side s, double t) const {
+WingPose Configuration::wing_pose(Side s, double t, Pair pair) const {
   WingPose p;
   p.side = s;
-  p.angles = kin_.angles(s, t);
+  p.angles = kin_.angles(s, t, pair);
   Mat3 R;
   Vec3 w, wd;
   right_wing_rotation(p.angles, R, w, wd);
-  const Vec3 hinge = r_sa_ * insect_.wing.hinge;
+  const Vec3 hinge = r_sa_ * insect_.pair_wing(pair).hinge;
   p.axes = r_sp_ * R;
   p.omega = r_sp_ * w;
   p.omega_dot = r_sp_ * wd;
@@ -70,18 +83,23 @@ MassState Configuration::mass_state(double t) const {
   m.body.mass = insect_.body.mass;
   m.body.r = -o_;
   m.body.inertia = r_sa_ * insect_.body.inertia * r_sa_.transpose();
-  for (Side s : {Side::right, Side::left}) {
-    const WingPose p = wing_pose(s, t);
-    PartMass& w = s == Side::right ? m.right : m.left;
-    const Vec3& xi = insect_.wing.mass_centre;
-    w.mass = insect_.wing.mass;
-    w.r = p.position(xi);
-    w.r_dot = p.velocity(xi);
-    w.r_ddot = p.acceleration(xi);
-    // The left wing's axes are improper, but A I A^T of a symmetric tensor is still its mirror image.
-    w.inertia = p.axes * insect_.wing.inertia_cg * p.axes.transpose();
-    w.omega = p.omega;
-    w.omega_dot = p.omega_dot;
+  for (Pair pair : {Pair::fore, Pair::hind}) {
+    if (pair == Pair::hind && !insect_.hind_wing) break;
+    const Wing& wing = insect_.pair_wing(pair);
+    for (Side s : {Side::right, Side::left}) {
+      const WingPose p = wing_pose(s, t, pair);
+      PartMass& w = pair == Pair::fore ? (s == Side::right ? m.right : m.left)
+                                       : (s == Side::right ? m.hind_right : m.hind_left);
+      const Vec3& xi = wing.mass_centre;
+      w.mass = wing.mass;
+      w.r = p.position(xi);
+      w.r_dot = p.velocity(xi);
+      w.r_ddot = p.acceleration(xi);
+      // The left wing's axes are improper, but A I A^T of a symmetric tensor is still its mirror image.
+      w.inertia = p.axes * wing.inertia_cg * p.axes.transpose();
+      w.omega = p.omega;
+      w.omega_dot = p.omega_dot;
+    }
   }
   return m;
 }

@@ -3,11 +3,13 @@
 // Stability frame S (the frame of every wrench and derivative): body-fixed, origin at the reference
 // point O = the wingbeat-mean centre of mass of the whole insect, x forward and horizontal at trim,
 // y right, z down. The anatomical frame A is S pitched nose-up by the body angle chi; each wing's
-// stroke-plane frame P is S pitched nose-up by the stroke-plane angle beta.
+// stroke-plane frame P is S pitched nose-up by the stroke-plane angle beta (by chi + beta when the stroke plane is
+// fixed to the body, Kinematics::stroke_plane_on_body).
 // Right wing orientation (wing frame -> P): Rz(-phi) Rx(-theta) Ry(alpha); the left wing is the
 // mirror image in the x-z plane (positions and velocities map by M = diag(1,-1,1), angular
 // velocities by -M).
 #pragma once
+#include <array>
 #include "core/insect.hpp"
 #include "core/kinematics.hpp"
 
@@ -40,8 +42,14 @@ struct PartMass {
 
 struct MassState {
   PartMass body, right, left;
-  double total_mass() const { return body.mass + right.mass + left.mass; }
-  Vec3 first_moment() const { return body.mass * body.r + right.mass * right.r + left.mass * left.r; }
+  PartMass hind_right, hind_left;  // the hind pair (mass 0 for a two-winged insect)
+  double total_mass() const { return body.mass + right.mass + left.mass + hind_right.mass + hind_left.mass; }
+  Vec3 first_moment() const {
+    return body.mass * body.r + right.mass * right.r + left.mass * left.r + hind_right.mass * hind_right.r +
+           hind_left.mass * hind_left.r;
+  }
+  // Every part, for sums over the system.
+  std::array<const PartMass*, 5> parts() const { return {&body, &right, &left, &hind_right, &hind_left}; }
 };
 
 class Configuration {
@@ -56,13 +64,13 @@ class Configuration {
   const Vec3& reference_point() const { return o_; }
   // Body CoM in S.
   Vec3 body_centre() const { return -o_; }
-  WingPose wing_pose(Side s, double t) const;
+  WingPose wing_pose(Side s, double t, Pair p = Pair::fore) const;
   MassState mass_state(double t) const;
   // Map from A to S axes.
   const Mat3& anatomical_to_stability() const { return r_sa_; }
 
  private:
-  Vec3 wing_cg_about_body_cg(Side s, double t) const;
+  Vec3 wing_cg_about_body_cg(Side s, double t, Pair p) const;
   const Insect& insect_;
   const Kinematics& kin_;
   Mat3 r_sa_, r_sp_;

@@ -17,7 +17,7 @@ struct Aggregates {
 Aggregates aggregate(const MassState& ms) {
   Aggregates a;
   const Mat3 I3 = Mat3::Identity();
-  for (const PartMass* p : {&ms.body, &ms.right, &ms.left}) {
+  for (const PartMass* p : ms.parts()) {
     const Vec3& r = p->r;
     const Vec3& rd = p->r_dot;
     a.m += p->mass;

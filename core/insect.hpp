@@ -49,11 +49,13 @@ struct Wing {
 struct Insect {
   std::string name;
   Body body;
-  Wing wing;
+  Wing wing;                      // the fore pair (the only pair of a two-winged insect)
+  std::optional<Wing> hind_wing;  // the hind pair of a four-winged insect: own planform, hinge and mass
   // Gravitational acceleration where it flies (m/s^2; [environment] gravity_m_s2). Kept with the insect because
   // everything that weighs it (trim, equations of motion, derivatives, free flight) already takes the insect.
   double gravity = standard_gravity;
-  double total_mass() const { return body.mass + 2 * wing.mass; }
+  double total_mass() const { return body.mass + 2 * wing.mass + (hind_wing ? 2 * hind_wing->mass : 0.0); }
+  const Wing& pair_wing(Pair p) const { return p == Pair::hind ? *hind_wing : wing; }
   double weight() const { return total_mass() * gravity; }
 };
 

@@ -4,9 +4,9 @@
 
 namespace flapstab {
 
-WingAngleState Kinematics::angles(Side s, double t) const {
-  const WingAngles& w = wing(s);
-  const double tau = t * frequency_hz, n = frequency_hz, n2 = n * n;
+WingAngleState Kinematics::angles(Side s, double t, Pair pair) const {
+  const WingAngles& w = wing(s, pair);
+  const double tau = t * frequency_hz + (pair == Pair::hind ? hind_phase : 0.0), n = frequency_hz, n2 = n * n;
   const SeriesValue p = w.stroke.eval(tau), d = w.deviation.eval(tau), a = w.pitch.eval(tau);
   return {p.f, d.f, a.f, p.df * n, d.df * n, a.df * n, p.ddf * n2, d.ddf * n2, a.ddf * n2};
 }
@@ -15,7 +15,9 @@ bool Kinematics::symmetric() const {
   for (int i = 0; i < 64; ++i) {
     const double tau = (i + 0.37) / 64.0;
     for (auto [l, r] : {std::pair{&left.stroke, &right.stroke}, std::pair{&left.deviation, &right.deviation},
-                        std::pair{&left.pitch, &right.pitch}}) {
+                        std::pair{&left.pitch, &right.pitch}, std::pair{&hind_left.stroke, &hind_right.stroke},
+                        std::pair{&hind_left.deviation, &hind_right.deviation},
+                        std::pair{&hind_left.pitch, &hind_right.pitch}}) {
       if (std::abs(l->eval(tau).f - r->eval(tau).f) > 1e-14) return false;
     }
   }

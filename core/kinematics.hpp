@@ -32,13 +32,26 @@ struct Kinematics {
   double frequency_hz = 0;    // wingbeat frequency n
   double stroke_plane = 0;    // beta (rad): stroke-plane inclination from the stability x-y plane, positive nose-up
   double body_angle = 0;      // chi (rad): body long axis above the stability x axis, positive nose-up
+  // When true ([kinematics] stroke_plane_reference = "body"), stroke_plane is measured from the body long axis, so the
+  // stroke plane turns with the body (a body-angle change leaves the wing motion relative to the body unchanged).
+  bool stroke_plane_on_body = false;
+  // The stroke plane's inclination from the stability x-y plane (rad), whichever its reference.
+  double stroke_plane_in_stability() const { return stroke_plane + (stroke_plane_on_body ? body_angle : 0.0); }
   WingAngles right, left;     // left uses the same conventions as right (mirror-image definitions)
+  // The hind pair of a four-winged insect ([kinematics.hind]): its own angle histories in the same stroke plane,
+  // evaluated hind_phase cycles ahead of the fore pair (tau_hind = tau + hind_phase).
+  bool has_hind = false;
+  WingAngles hind_right, hind_left;
+  double hind_phase = 0;
 
   double period() const { return 1.0 / frequency_hz; }
   const WingAngles& wing(Side s) const { return s == Side::right ? right : left; }
   WingAngles& wing(Side s) { return s == Side::right ? right : left; }
+  const WingAngles& wing(Side s, Pair p) const {
+    return p == Pair::fore ? wing(s) : (s == Side::right ? hind_right : hind_left);
+  }
   // Angles of one wing at time t (s).
-  WingAngleState angles(Side s, double t) const;
+  WingAngleState angles(Side s, double t, Pair p = Pair::fore) const;
   // True when left and right angle histories agree at every sampled phase (to 1e-14 rad).
   bool symmetric() const;
   // Stroke amplitude Phi (rad, peak to peak), the mean of the two wings. For revolving wings, half the

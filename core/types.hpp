@@ -13,6 +13,9 @@ constexpr double deg = pi / 180.0;      // multiply degrees by this to get radia
 constexpr double standard_gravity = 9.80665;  // m/s^2
 
 enum class Side { right, left };
+// The wing pair: the fore pair (every insect) and an optional hind pair (four-winged insects: dragonflies, flapping
+// MAVs; docs/case-file.md [hind_wing]).
+enum class Pair { fore, hind };
 
 // Force and moment (about the reference point O, in stability axes), SI units.
 struct Wrench {

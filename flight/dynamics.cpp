@@ -44,7 +44,7 @@ FlightDynamics::FlightDynamics(const AeroModel& model, const Insect& insect, con
                      "model = \"quasi-steady\"");
   qs_ = dynamic_cast<const QuasiSteadyModel*>(&model);
   config_ = std::make_unique<Configuration>(insect_, trimmed_);
-  if (qs_) span_ = span_quadrature(insect_.wing, qs_->options().blade_elements);
+  if (qs_) span_ = span_quadrature(insect_, qs_->options().blade_elements);
 }
 
 std::optional<int> FlightDynamics::actuator_index(const std::string& name) const {

@@ -33,7 +33,7 @@ struct FreeJacobian {
   const QuasiSteadyModel* qs = nullptr;
   SpanQuadrature span;
   FreeJacobian(const InstantaneousAero& aero, const AeroModel& model) : qs(dynamic_cast<const QuasiSteadyModel*>(&model)) {
-    if (qs) span = span_quadrature(aero.insect().wing, qs->options().blade_elements);
+    if (qs) span = span_quadrature(aero.insect(), qs->options().blade_elements);
   }
   OdeJacobian function(const InstantaneousAero& aero) const {
     if (!qs) return {};

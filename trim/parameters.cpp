@@ -17,10 +17,16 @@ double refine_extremum(const AngleSeries& s, double tau) {
   }
   return s.eval(tau).f;
 }
+// The wings a parameter acts on: those of its side, of both pairs (a hind pair's angles change with the fore pair's).
 std::vector<WingAngles*> wings(Kinematics& k, ParameterSide side) {
-  if (side == ParameterSide::right) return {&k.right};
-  if (side == ParameterSide::left) return {&k.left};
-  return {&k.right, &k.left};
+  std::vector<WingAngles*> out;
+  if (side != ParameterSide::left) out.push_back(&k.right);
+  if (side != ParameterSide::right) out.push_back(&k.left);
+  if (k.has_hind) {
+    if (side != ParameterSide::left) out.push_back(&k.hind_right);
+    if (side != ParameterSide::right) out.push_back(&k.hind_left);
+  }
+  return out;
 }
 const WingAngles& first_wing(const Kinematics& k, ParameterSide side) {
   return side == ParameterSide::left ? k.left : k.right;

@@ -28,6 +28,7 @@ std::string fingerprint(const Insect& insect, const Kinematics& kin) {
   std::string s = fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", insect.total_mass(),
                               insect.wing.length, insect.wing.mean_chord, kin.frequency_hz, kin.stroke_plane,
                               kin.body_angle);
+  if (kin.stroke_plane_on_body) s += " stroke-plane-on-body";
   for (Side side : {Side::right, Side::left})
     for (int k = 0; k < 32; ++k) {
       const WingAngleState a = kin.angles(side, kin.period() * k / 32);

@@ -186,6 +186,12 @@ SpanQuadrature span_quadrature(const Wing& wing, int n) {
   return q;
 }
 
+SpanQuadrature span_quadrature(const Insect& insect, int n) {
+  SpanQuadrature q = span_quadrature(insect.wing, n);
+  if (insect.hind_wing) q.hind = std::make_shared<const SpanQuadrature>(span_quadrature(*insect.hind_wing, n));
+  return q;
+}
+
 QuasiSteadyModel::QuasiSteadyModel(QuasiSteadyOptions o) : opt_(o), fit_(o.coefficients, o.constants) {
   if (!(opt_.rho > 0)) throw std::invalid_argument("quasi-steady model: fluid density must be > 0");
   if (opt_.blade_elements < 1) throw std::invalid_argument("quasi-steady model: blade_elements must be >= 1");
@@ -203,7 +209,7 @@ WrenchHistory QuasiSteadyModel::run(const Insect& insect, const Kinematics& kin,
   if (!(kin.frequency_hz > 0)) throw std::invalid_argument("quasi-steady model: wingbeat frequency must be > 0");
   const int n = options.samples_per_cycle > 0 ? options.samples_per_cycle : opt_.samples_per_cycle;
   const Configuration config(insect, kin);
-  const SpanQuadrature span = span_quadrature(insect.wing, opt_.blade_elements);
+  const SpanQuadrature span = span_quadrature(insect, opt_.blade_elements);
   WrenchHistory h;
   h.samples.reserve(std::size_t(n));
   for (int k = 0; k < n; ++k) h.samples.push_back(loads(config, span, kin.period() * k / n, motion));
@@ -213,7 +219,7 @@ WrenchHistory QuasiSteadyModel::run(const Insect& insect, const Kinematics& kin,
 WrenchSample QuasiSteadyModel::instantaneous(const Insect& insect, const Kinematics& kin, double t,
                                              const BodyMotion& motion) const {
   const Configuration config(insect, kin);
-  return loads(config, span_quadrature(insect.wing, opt_.blade_elements), t, motion);
+  return loads(config, span_quadrature(insect, opt_.blade_elements), t, motion);
 }
 
 WrenchSample QuasiSteadyModel::loads(const Configuration& config, const SpanQuadrature& span, double t,
@@ -224,8 +230,16 @@ WrenchSample QuasiSteadyModel::loads(const Configuration& config, const SpanQuad
   double power_right = 0, power_left = 0;
   s.right = wing_loads(config.wing_pose(Side::right, t), x0, span, motion, power_right);
   s.left = wing_loads(config.wing_pose(Side::left, t), x0, span, motion, power_left);
-  s.body = body_loads(config, motion);
   s.power = power_right + power_left;
+  // A hind pair adds its own blade elements; its loads join those of the wings on its side (the wings do not
+  // interact aerodynamically in the quasi-steady model: no fore-hind wake interaction).
+  if (const auto& hind = config.insect().hind_wing) {
+    if (!span.hind) throw std::logic_error("quasi-steady loads: a four-winged insect needs span_quadrature(insect, n)");
+    s.right += wing_loads(config.wing_pose(Side::right, t, Pair::hind), hind->pitch_axis, *span.hind, motion, power_right);
+    s.left += wing_loads(config.wing_pose(Side::left, t, Pair::hind), hind->pitch_axis, *span.hind, motion, power_left);
+    s.power += power_right + power_left;
+  }
+  s.body = body_loads(config, motion);
   return s;
 }
 
@@ -421,6 +435,12 @@ Wrench QuasiSteadyModel::loads_jacobian(const Configuration& config, const SpanQ
   Wrench total = wing_loads_jacobian(config.wing_pose(Side::right, t), x0, span, motion, jr);
   total += wing_loads_jacobian(config.wing_pose(Side::left, t), x0, span, motion, jl);
   jacobian = jr + jl;
+  if (const auto& hind = config.insect().hind_wing) {
+    if (!span.hind) throw std::logic_error("quasi-steady loads: a four-winged insect needs span_quadrature(insect, n)");
+    total += wing_loads_jacobian(config.wing_pose(Side::right, t, Pair::hind), hind->pitch_axis, *span.hind, motion, jr);
+    total += wing_loads_jacobian(config.wing_pose(Side::left, t, Pair::hind), hind->pitch_axis, *span.hind, motion, jl);
+    jacobian += jr + jl;
+  }
   // Section 6's body drag: F = R_SA f_A(v_A), v_A = R_SA^T (v + Omega x p_c), df_A,i / dv_A,i = -rho C_D A_i |v_A,i|.
   const Body& bd = config.insect().body;
   const Wrench body = body_loads(config, motion);

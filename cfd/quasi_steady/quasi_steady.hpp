@@ -4,6 +4,7 @@
 // about the reference point O (core/configuration.hpp).
 #pragma once
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -61,8 +62,12 @@ class CoefficientFit {
 // elliptic planform's sqrt(1 - (r/R)^2) tip into a smooth integrand (docs/theory/quasi-steady.md).
 struct SpanQuadrature {
   std::vector<double> r, w, c;  // node radius (m), weight (m), local chord (m)
+  // The hind wing's nodes for a four-winged insect (span_quadrature of the Insect); null otherwise.
+  std::shared_ptr<const SpanQuadrature> hind;
 };
 SpanQuadrature span_quadrature(const Wing& wing, int n);
+// The fore wing's quadrature with the hind wing's (when the insect has a hind pair) attached.
+SpanQuadrature span_quadrature(const Insect& insect, int n);
 
 class QuasiSteadyModel : public AeroModel {
  public:

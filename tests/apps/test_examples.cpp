@@ -144,6 +144,40 @@ TEST(Examples, PublishedRoboflyConstantsGiveTheDefaultTrimBitForBit) {
   EXPECT_EQ(c["trim"]["residuals"], h["trim"]["residuals"]);
 }
 
+TEST(Examples, FourWingsOfTwoIdenticalPairsTrimAtOneOverSqrtTwo) {
+  // Two identical pairs in phase with half the wing mass each: the hawkmoth's mass properties and twice one pair's
+  // loads, which scale as n^2 at fixed angles - the trimmed frequency is the two-winged hawkmoth's / sqrt(2), with
+  // the same means (analytic similarity; 1e-8 relative, the trim tolerance).
+  const nlohmann::json four = analyze("four_wing_hawkmoth.toml");
+  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
+  const std::string amp = "name = \"stroke_amplitude_deg\"";
+  ASSERT_NE(text.find(amp), std::string::npos);
+  text.replace(text.find(amp), amp.size(), "name = \"frequency_hz\"");
+  text.replace(text.find("lower = 90.0"), 12, "lower = 5.0");
+  text.replace(text.find("upper = 150.0"), 13, "upper = 40.0");
+  const nlohmann::json two = trim(testing::write_temp("two_wing_frequency_hawkmoth.toml", text));
+  ASSERT_FALSE(four.is_null() || two.is_null());
+  const auto& p4 = four["trim"]["parameters"];
+  const auto& p2 = two["trim"]["parameters"];
+  EXPECT_EQ(p4[0]["name"], "frequency_hz");
+  EXPECT_NEAR(double(p2[0]["value"]) / double(p4[0]["value"]), std::sqrt(2.0), 1e-8);
+  EXPECT_NEAR(double(p2[1]["value"]), double(p4[1]["value"]), 1e-6);
+  EXPECT_NEAR(double(p2[2]["value"]), double(p4[2]["value"]), 1e-6);
+  EXPECT_TRUE(four["trim"]["kinematics"].contains("hind"));
+}
+
+TEST(Examples, BodyFixedStrokePlaneGivesTheSameWingbeat) {
+  // -49.3 deg from the body axis at a 34.3 deg body angle is the hawkmoth's -15 deg from the horizontal: the same
+  // trim (1e-8, the trim tolerance; the two stroke-plane rotations differ in the last bits only).
+  const nlohmann::json b = analyze("body_stroke_plane_hawkmoth.toml");
+  const nlohmann::json h = trim(source + "/data/insects/hawkmoth.toml");
+  ASSERT_FALSE(b.is_null() || h.is_null());
+  EXPECT_EQ(b["trim"]["kinematics"]["stroke_plane_reference"], "body");
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_NEAR(double(b["trim"]["parameters"][i]["value"]), double(h["trim"]["parameters"][i]["value"]), 1e-8)
+        << h["trim"]["parameters"][i]["name"];
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

@@ -7,7 +7,6 @@
 // rectangular one.
 #include <gtest/gtest.h>
 #include <cmath>
-#include <iostream>
 #include "cfd/quasi_steady/quasi_steady.hpp"
 #include "core/configuration.hpp"
 #include "core/rotation.hpp"
@@ -559,6 +558,80 @@ TEST(QuasiSteadyPlanform, PolynomialReproducesRectangularAndLinearTable) {
       EXPECT_LT((t.samples[k].total().force - l.samples[k].total().force).norm(), 1e-13 * peak);
       EXPECT_LT((t.samples[k].total().moment - l.samples[k].total().moment).norm(), 1e-13 * peak * R);
     }
+  }
+}
+
+// Four wings: a hind pair identical to the fore pair and in phase with it carries exactly the fore pair's loads (the
+// same strip sums repeated), so every wing load, the power and the load Jacobian double - to round-off (1e-14). The
+// two-winged insect's wings carry the doubled mass, so that both have the same centre of mass O (with body rates the
+// wing velocities depend on where O is).
+TEST(QuasiSteadyFourWings, IdenticalInPhaseHindPairDoublesTheLoads) {
+  Insect two = test_insect(Planform::elliptic, 0.3, 0);
+  Insect four = two;
+  four.hind_wing = two.wing;
+  two.wing.mass *= 2;
+  const Kinematics k2 = kinematics(hover_wing(), hover_wing(70, 0.1));
+  Kinematics k4 = k2;
+  k4.has_hind = true;
+  k4.hind_right = k4.right;
+  k4.hind_left = k4.left;
+  BodyMotion m;
+  m.velocity = Vec3(0.2, -0.1, 0.3);
+  m.rate = Vec3(1, 3, -2);
+  const Configuration c2(two, k2), c4(four, k4);
+  ASSERT_LT((c2.reference_point() - c4.reference_point()).norm(), 1e-15);
+  const SpanQuadrature s2 = span_quadrature(two, 40), s4 = span_quadrature(four, 40);
+  for (CoefficientSet set : {CoefficientSet::robofly, CoefficientSet::berman_wang}) {
+    const QuasiSteadyModel qs = model(set);
+    for (double tau : {0.0, 0.13, 0.37, 0.5, 0.81}) {
+      const double t = tau * k2.period();
+      const WrenchSample a = qs.loads(c2, s2, t, m), b = qs.loads(c4, s4, t, m);
+      const double scale = a.total().force.norm() + a.right.force.norm();
+      EXPECT_LT((b.total().force - 2 * a.total().force).norm(), 1e-14 * scale);
+      EXPECT_LT((b.total().moment - 2 * a.total().moment).norm(), 1e-14 * scale * R);
+      EXPECT_LT((b.right.force - 2 * a.right.force).norm(), 1e-14 * scale);
+      EXPECT_NEAR(b.power, 2 * a.power, 1e-14 * std::abs(a.power));
+      Eigen::Matrix<double, 6, 6> j2, j4;
+      qs.loads_jacobian(c2, s2, t, m, j2);
+      qs.loads_jacobian(c4, s4, t, m, j4);
+      EXPECT_LT((j4 - 2 * j2).norm(), 1e-14 * j2.norm());
+    }
+  }
+}
+
+// A hind pair of its own (rectangular, shorter, behind, a quarter cycle ahead): its loads are those of a two-winged
+// insect with that wing and those kinematics shifted by the phase, added to the fore pair's (no interaction in the
+// quasi-steady model), with moments about the same point (the four-winged insect's O).
+TEST(QuasiSteadyFourWings, HindPairAddsItsOwnLoads) {
+  const Insect two = test_insect(Planform::elliptic, 0.3, 0);
+  Insect four = two, hind_only = two;
+  Wing hind = two.wing;
+  hind.planform = Planform::rectangular;
+  hind.length = 0.8 * R;
+  hind.hinge = Vec3(-0.01, 0.004, -0.002);
+  hind.pitch_axis = 0.2;
+  four.hind_wing = hind;
+  hind_only.wing = hind;
+  const Kinematics k2 = kinematics(hover_wing(), hover_wing());
+  Kinematics k4 = k2, kh = k2;
+  k4.has_hind = true;
+  k4.hind_right = k4.hind_left = hover_wing(50, 0.2);
+  k4.hind_phase = 0.25;
+  kh.right = kh.left = hover_wing(50, 0.2);
+  BodyMotion m;
+  m.velocity = Vec3(0.2, 0, 0.3);
+  const QuasiSteadyModel qs = model(CoefficientSet::robofly, true, true);
+  const Configuration c4(four, k4);
+  // The same reference point for the parts: O of the four-winged insect.
+  const Configuration c2(two, k2, c4.reference_point()), ch(hind_only, kh, c4.reference_point());
+  const SpanQuadrature s4 = span_quadrature(four, 40), s2 = span_quadrature(two, 40), sh = span_quadrature(hind_only, 40);
+  for (double tau : {0.05, 0.4, 0.7}) {
+    const double t = tau * k4.period();
+    const Wrench w4 = qs.loads(c4, s4, t, m).total(), w2 = qs.loads(c2, s2, t, m).total(),
+                 wh = qs.loads(ch, sh, t + 0.25 * k4.period(), m).total();
+    const double scale = w4.force.norm();
+    EXPECT_LT((w4.force - w2.force - wh.force).norm(), 1e-13 * scale);
+    EXPECT_LT((w4.moment - w2.moment - wh.moment).norm(), 1e-13 * scale * R);
   }
 }
 

@@ -242,3 +242,78 @@ TEST(CaseFile, QuasiSteadyConstantsBadInputNamesFileAndKey) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// The valid case with a hind pair: [hind_wing] and [kinematics.hind].
+std::string four_wing_case_text() {
+  std::string t = testing::valid_case_text();
+  t = testing::replace(t, "[kinematics]\n",
+                       "[hind_wing]\nlength_m = 0.045\nmean_chord_m = 0.015\nplanform = \"rectangular\"\n"
+                       "mass_kg = 30e-6\nhinge_m = [-0.004, 0.004, -0.003]\n\n[kinematics]\n");
+  t = testing::replace(t, "[fluid]\n",
+                       "[kinematics.hind]\nphase_deg = 90.0\n[kinematics.hind.stroke]\ncos_deg = [-50.0]\n"
+                       "[kinematics.hind.pitch]\nmean_deg = 90.0\nsin_deg = [-50.0]\n\n[fluid]\n");
+  return t;
+}
+
+TEST(CaseFile, FourWingsLoad) {
+  const Case c = load_case(testing::write_temp("four.toml", four_wing_case_text()));
+  ASSERT_TRUE(c.insect.hind_wing.has_value());
+  EXPECT_EQ(c.insect.hind_wing->planform, Planform::rectangular);
+  EXPECT_NEAR(c.insect.total_mass(), 1.554e-3 + 2 * 47e-6 + 2 * 30e-6, 1e-15);
+  EXPECT_TRUE(c.kinematics.has_hind);
+  EXPECT_DOUBLE_EQ(c.kinematics.hind_phase, 0.25);
+  // The hind stroke leads by a quarter cycle: at t = 0 it is where a -50 cos(2 pi tau) stroke is at tau = 1/4.
+  EXPECT_NEAR(c.kinematics.angles(Side::right, 0.0, Pair::hind).phi, 0.0, 1e-15);
+  EXPECT_NEAR(c.kinematics.angles(Side::left, 0.25 / 26.0, Pair::hind).phi / deg, 50.0, 1e-12);
+  EXPECT_TRUE(c.kinematics.symmetric());
+}
+
+TEST(CaseFile, FourWingsBadInputNamesFileAndKey) {
+  const std::string base = four_wing_case_text();
+  const std::vector<std::array<std::string, 3>> bad = {
+      // a hind pair with no wing (planform, hinge, mass) or no kinematics
+      {"[hind_wing]\nlength_m = 0.045\nmean_chord_m = 0.015\nplanform = \"rectangular\"\nmass_kg = 30e-6\n"
+       "hinge_m = [-0.004, 0.004, -0.003]\n",
+       "", "hind_wing"},
+      {"[kinematics.hind]\nphase_deg = 90.0\n[kinematics.hind.stroke]\ncos_deg = [-50.0]\n"
+       "[kinematics.hind.pitch]\nmean_deg = 90.0\nsin_deg = [-50.0]\n",
+       "", "kinematics.hind"},
+      {"mass_kg = 30e-6", "mass_kg = -30e-6", "hind_wing.mass_kg"},
+      {"planform = \"rectangular\"", "planform = \"oval\"", "hind_wing.planform"},
+      {"[kinematics.hind.stroke]\ncos_deg = [-50.0]\n", "", "kinematics.hind.stroke"},
+      {"phase_deg = 90.0", "phase = 90.0", "kinematics.hind.phase"},
+      {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"},
+  };
+  int i = 0;
+  for (const auto& [from, to, key] : bad) {
+    const std::string path = testing::write_temp("four_bad" + std::to_string(i++) + ".toml", testing::replace(base, from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+TEST(CaseFile, StrokePlaneReference) {
+  const Case h = load_case(testing::write_temp("spr_h.toml", testing::valid_case_text()));
+  EXPECT_FALSE(h.kinematics.stroke_plane_on_body);
+  const Case b = load_case(testing::write_temp(
+      "spr_b.toml", testing::replace(testing::valid_case_text(), "stroke_plane_deg = 0.0",
+                                     "stroke_plane_deg = -40.0\nstroke_plane_reference = \"body\"")));
+  EXPECT_TRUE(b.kinematics.stroke_plane_on_body);
+  EXPECT_NEAR(b.kinematics.stroke_plane_in_stability(), 0.0, 1e-15);  // -40 + body angle 40
+  const std::string path = testing::write_temp(
+      "spr_bad.toml", testing::replace(testing::valid_case_text(), "stroke_plane_deg = 0.0",
+                                       "stroke_plane_deg = 0.0\nstroke_plane_reference = \"thorax\""));
+  testing::expect_input_error([&] { load_case(path); }, "kinematics.stroke_plane_reference", path);
+}
+
+}  // namespace
+}  // namespace flapstab

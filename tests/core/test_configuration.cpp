@@ -76,3 +76,38 @@ TEST(Configuration, StrokeAngleMovesTheRightWingForwardAndPitchRaisesTheLeadingE
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// Stroke plane fixed to the body ([kinematics] stroke_plane_reference = "body"): the stroke-plane frame is S pitched
+// by chi + beta, so (1) it equals the horizontal reference with beta + chi, and (2) changing the body angle leaves
+// every wing's pose relative to the body (A axes, about the body CoM) unchanged - to round-off (1e-15).
+TEST(Configuration, StrokePlaneFixedToTheBodyTurnsWithIt) {
+  const Insect ins = testing::test_insect();
+  Kinematics body = testing::harmonic_kinematics(26, 120, 35, 40, -20);
+  body.stroke_plane_on_body = true;
+  const Kinematics horizontal = testing::harmonic_kinematics(26, 120, 35, 40, 20);  // -20 + 40
+  const Configuration cb(ins, body), ch(ins, horizontal);
+  for (double t : {0.0, 0.01, 0.023})
+    for (Side s : {Side::right, Side::left}) {
+      const WingPose a = cb.wing_pose(s, t), b = ch.wing_pose(s, t);
+      EXPECT_LT((a.axes - b.axes).norm(), 1e-15);
+      EXPECT_LT((a.hinge - b.hinge).norm(), 1e-15);
+      EXPECT_LT((a.omega - b.omega).norm(), 1e-12 * a.omega.norm());
+    }
+  Kinematics pitched = body;
+  pitched.body_angle += 15 * deg;
+  const Configuration cp(ins, pitched);
+  for (double t : {0.0, 0.01, 0.023})
+    for (Side s : {Side::right, Side::left}) {
+      const WingPose a = cb.wing_pose(s, t), b = cp.wing_pose(s, t);
+      const Mat3 ra = cb.anatomical_to_stability().transpose(), rb = cp.anatomical_to_stability().transpose();
+      EXPECT_LT((ra * a.axes - rb * b.axes).norm(), 1e-15);
+      EXPECT_LT((ra * (a.hinge - cb.body_centre()) - rb * (b.hinge - cp.body_centre())).norm(), 1e-15);
+      EXPECT_LT((ra * a.omega - rb * b.omega).norm(), 1e-12 * a.omega.norm());
+    }
+}
+
+}  // namespace
+}  // namespace flapstab

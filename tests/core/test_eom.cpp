@@ -89,3 +89,72 @@ TEST(Eom, MasslessWingsGiveEulerRigidBodyEquations) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// Four wings: a hind pair with its own planform, hinge, mass and kinematics (phase-shifted) in the mass properties
+// and the inertial terms. Without loads the total momentum of body + four wings is conserved (RK4 at 4000 steps per
+// cycle, 1e-9 of the wing momentum scale, as for two wings).
+TEST(Eom, FourWingsConserveMomentumWithoutExternalLoads) {
+  Insect ins = testing::test_insect();
+  Wing hind = ins.wing;
+  hind.planform = Planform::rectangular;
+  hind.length *= 0.9;
+  hind.mass *= 2;
+  hind.hinge = Vec3(-0.008, 0.005, -0.002);
+  Vec3 c;
+  Mat3 ih;
+  hind.plate_mass_properties(c, ih);
+  hind.mass_centre = c;
+  hind.inertia_cg = ih - hind.mass * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+  ins.hind_wing = hind;
+  Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  k.has_hind = true;
+  k.hind_right = testing::harmonic_wing(100, 30, 10, 5);
+  k.hind_left = testing::harmonic_wing(90, 40, -5, 3);
+  k.hind_phase = 0.3;
+  const Configuration cfg(ins, k);
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  Vec3 P0, H0, P1, H1;
+  system_momenta(cfg, 0.0, x, P0, H0);
+  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
+  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const double p_scale = hind.mass * 2 * pi * 26 * ins.wing.length;
+  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
+  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  EXPECT_NEAR(cfg.mass_state(0.1).total_mass(), ins.total_mass(), 1e-18);
+}
+
+// A hind pair identical to the fore pair and in phase with it is the two-winged insect with doubled wing masses and
+// inertias: the same equations of motion, to round-off (1e-12 relative).
+TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
+  Insect four = testing::test_insect(), two = four;
+  four.hind_wing = four.wing;
+  two.wing.mass *= 2;
+  two.wing.inertia_cg *= 2;
+  Kinematics k4 = testing::harmonic_kinematics(26, 120, 35, 40, 10), k2 = k4;
+  k4.has_hind = true;
+  k4.hind_right = k4.right;
+  k4.hind_left = k4.left;
+  const Configuration c4(four, k4), c2(two, k2);
+  EXPECT_LT((c4.reference_point() - c2.reference_point()).norm(), 1e-15);
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  Wrench w;
+  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
+  w.moment = Vec3(1e-5, -3e-5, 2e-6);
+  for (double t : {0.0, 0.011, 0.027}) {
+    const BodyStateVector d4 = body_state_derivative(c4, t, x, w), d2 = body_state_derivative(c2, t, x, w);
+    EXPECT_LT((d4 - d2).norm(), 1e-12 * d2.norm()) << t;
+  }
+}
+
+}  // namespace
+}  // namespace flapstab
