@@ -160,6 +160,24 @@ class Section {
     for (const auto& e : *n->as_array()) out.push_back(to_number(k, e, expected));
     return out;
   }
+  // An array of strings, each one of `allowed`, none repeated; `dflt` when absent.
+  std::vector<std::string> strings(const std::string& k, const std::vector<std::string>& dflt,
+                                   const std::vector<std::string>& allowed) {
+    const toml::node* n = node(k);
+    std::string expected = "a non-empty array of distinct strings, each one of";
+    for (const auto& a : allowed) expected += " \"" + a + "\"";
+    if (!n) return dflt;
+    if (!n->is_array() || n->as_array()->empty()) fail(k, "is not a non-empty array", expected);
+    std::vector<std::string> out;
+    for (const auto& e : *n->as_array()) {
+      if (!e.is_string()) fail(k, "holds a non-string entry", expected);
+      const std::string v = e.as_string()->get();
+      if (std::find(allowed.begin(), allowed.end(), v) == allowed.end()) fail(k, "unknown value \"" + v + "\"", expected);
+      if (std::find(out.begin(), out.end(), v) != out.end()) fail(k, "repeats \"" + v + "\"", expected);
+      out.push_back(v);
+    }
+    return out;
+  }
   // Throws if the table holds a key that was never read.
   void reject_unknown(const std::vector<std::string>& also_allowed = {}) const {
     if (!t_) return;
@@ -471,6 +489,21 @@ void parse_coefficient_constants(Section& qs, QuasiSteadySettings& q) {
     qs.fail("centre_of_pressure_chord_fraction", "outside [0, 1]", "a fraction of chord from the leading edge in [0, 1]");
 }
 
+FpmSettings parse_fpm(Section s) {
+  FpmSettings f;
+  if (!s.present()) return f;
+  f.enabled = s.boolean_or("enabled", true);
+  f.samples_per_cycle = s.integer_or("samples_per_cycle", f.samples_per_cycle, 1, 100000);
+  f.components = s.strings("components", f.components, {"Fx", "Fy", "Fz", "Mx", "My", "Mz"});
+  f.parts = s.strings("parts", f.parts, {"body", "right", "left"});
+  f.regions = s.strings("regions", f.regions, {"leading-edge", "trailing-edge", "tip"});
+  f.region_size_chords = s.positive_in("region_size_chords", f.region_size_chords, 0.05, 10, "a distance in mean chords");
+  f.fields_per_cycle = s.integer_or("fields_per_cycle", f.fields_per_cycle, 0, 100000);
+  f.tolerance = s.positive_in("tolerance", f.tolerance, 1e-12, 1e-2, "a relative residual");
+  s.reject_unknown();
+  return f;
+}
+
 CfdSettings parse_cfd(Section s) {
   CfdSettings d;
   auto margin = [&](const char* k, double dflt) {
@@ -528,6 +561,7 @@ CfdSettings parse_cfd(Section s) {
   d.wing_span_stations = s.integer_or("wing_span_stations", d.wing_span_stations, 2, 1000);
   d.wing_chord_divisions = s.integer_or("wing_chord_divisions", d.wing_chord_divisions, 1, 200);
   d.threads = s.integer_or("threads", d.threads, 0, 4096);
+  d.fpm = parse_fpm(s.sub("fpm", false));
   s.reject_unknown();
   return d;
 }
@@ -612,6 +646,10 @@ Case load_case(const std::string& path) {
   qs.reject_unknown();
   c.aero.cfd = parse_cfd(aero.sub("cfd", false));
   aero.reject_unknown();
+  if (c.aero.cfd.fpm.enabled && c.aero.model != "cfd")
+    throw InputError(path, "aero.cfd.fpm", "force partitioning splits the loads of a CFD run, but [aero] model is \"" +
+                                               c.aero.model + "\"",
+                     "[aero] model = \"cfd\" (or remove [aero.cfd.fpm])");
   if (c.insect.hind_wing && c.aero.model == "cfd")
     throw InputError(path, "aero.model", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
                      "model = \"quasi-steady\" for a hind pair");

@@ -26,6 +26,22 @@ struct QuasiSteadySettings {
   int samples_per_cycle = 128;
 };
 
+// [aero.cfd.fpm]: force partitioning of the CFD loads during a run (cfd/fpm/, docs/theory/force-partitioning.md).
+struct FpmSettings {
+  bool enabled = false;          // the table [aero.cfd.fpm] is present and its `enabled` is not false
+  int samples_per_cycle = 40;    // partitions per wingbeat (at the ends of the steps that cross these phases)
+  // Load components partitioned, of "Fx" "Fy" "Fz" "Mx" "My" "Mz" (stability axes S, moments about O); one influence
+  // potential per part and component is solved at every sample.
+  std::vector<std::string> components = {"Fx", "Fz"};
+  std::vector<std::string> parts = {"body", "right", "left"};
+  // Regions of the flow around each wing, in the wing's frame, over which the vortex-induced force is integrated
+  // ("leading-edge" "trailing-edge" "tip"); the rest of the flow is "wake". Definitions: docs/theory/force-partitioning.md.
+  std::vector<std::string> regions = {"leading-edge", "trailing-edge", "tip"};
+  double region_size_chords = 1.0;  // how far the wing regions reach off the wing surface and beyond the tip (mean chords)
+  int fields_per_cycle = 0;         // potential and vortex-force-density field outputs per wingbeat (0: none)
+  double tolerance = 1e-6;          // potential solves: max residual / max right-hand side
+};
+
 // [aero.cfd]: the Navier-Stokes immersed-boundary run (cfd/navier_stokes/run.hpp, docs/case-file.md).
 // Lengths are in wing lengths R; the grid lives in stability axes S with its origin at O.
 struct CfdSettings {
@@ -63,6 +79,7 @@ struct CfdSettings {
   int wing_span_stations = 40;      // wing mesh: spanwise stations
   int wing_chord_divisions = 10;    // wing mesh: chordwise divisions
   int threads = 0;                  // OpenMP threads (0: the OpenMP default)
+  FpmSettings fpm;                  // [aero.cfd.fpm]
 };
 
 struct AeroSettings {

@@ -49,6 +49,19 @@ std::vector<int> owners_of(const Grid& g, int parts, const LevelFunction& level)
   return o;
 }
 
+void copy_periodic_faces(Field& f, const Shape& s, int d) {
+  const int n = s.n(d);
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        const int I[3] = {i, j, k};
+        if (I[d] != 1) continue;
+        int J[3] = {i, j, k};
+        J[d] = n + 1;
+        f(J[0], J[1], J[2]) = f(i, j, k);
+      }
+}
+
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
                              int samples) {
   const Shape s = g.shape();
@@ -141,16 +154,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
             if (count[std::size_t(p)] > 0)
               solids.push_back({d, {i, j, k}, p, count[std::size_t(p)] / n2, sum[std::size_t(p)] / count[std::size_t(p)]});
         }
-    if (ad.periodic)  // face n+1 is face 1
-      for (int k = 1; k <= s.nz; ++k)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int i = 1; i <= s.nx; ++i) {
-            const int I[3] = {i, j, k};
-            if (I[d] != 1) continue;
-            int J[3] = {i, j, k};
-            J[d] = s.n(d) + 1;
-            ap(J[0], J[1], J[2]) = ap(i, j, k);
-          }
+    if (ad.periodic) copy_periodic_faces(ap, s, d);
   }
   // fluid volume fraction: the mean aperture of the cell's faces inside the domain
   for (int k = 1; k <= s.nz; ++k)

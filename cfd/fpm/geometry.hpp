@@ -47,6 +47,9 @@ struct FluidGeometry {
 
 // `owners`: a hint, the part holding each interior cell's centre (x fastest, -1 fluid); faces of the cells within one
 // cell (26-neighbourhood) of a solid cell are tested, the rest are open. `samples`: m of the m x m face lattice.
+// Along a periodic axis d face n+1 is face 1: copies the values of faces 1 of a face field to faces n+1.
+void copy_periodic_faces(Field& f, const Shape& s, int d);
+
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
                              int samples = 4);
 

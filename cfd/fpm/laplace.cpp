@@ -50,19 +50,7 @@ struct Level {
 
   void finish() {
     for (int d = 0; d < 3; ++d)
-      if (periodic[d]) {
-        // face n+1 is face 1
-        const int n = s.n(d);
-        for (int k = 1; k <= s.nz; ++k)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int i = 1; i <= s.nx; ++i) {
-              int I[3] = {i, j, k};
-              if (I[d] != 1) continue;
-              int J[3] = {i, j, k};
-              J[d] = n + 1;
-              a[d](J[0], J[1], J[2]) = a[d](i, j, k);
-            }
-      }
+      if (periodic[d]) copy_periodic_faces(a[d], s, d);
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
@@ -80,29 +68,22 @@ struct Level {
            a[2][n] * x[n - s.sz] + a[2][n + s.sz] * x[n + s.sz];
   }
 
-  void apply(Field& xv, Field& out) const {
+  // out = A x (bv null) or b - A x, zero in inactive cells.
+  void apply_or_residual(Field& xv, const Field* bv, Field& out) const {
     fill_ghosts(s, periodic, xv.data());
     const real* xp = xv.data();
+    const real* bp = bv ? bv->data() : nullptr;
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
         for (int i = 1; i <= s.nx; ++i) {
           const std::ptrdiff_t n = s(i, j, k);
-          out[n] = active(n) ? diag[n] * xp[n] - off(xp, i, j, k) : 0;
+          const real ax = active(n) ? diag[n] * xp[n] - off(xp, i, j, k) : 0;
+          out[n] = !active(n) ? 0 : bp ? bp[n] - ax : ax;
         }
   }
-
-  void residual(Field& xv, const Field& bv, Field& rv) const {
-    fill_ghosts(s, periodic, xv.data());
-    const real* xp = xv.data();
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const std::ptrdiff_t n = s(i, j, k);
-          rv[n] = active(n) ? bv[n] - (diag[n] * xp[n] - off(xp, i, j, k)) : 0;
-        }
-  }
+  void apply(Field& xv, Field& out) const { apply_or_residual(xv, nullptr, out); }
+  void residual(Field& xv, const Field& bv, Field& rv) const { apply_or_residual(xv, &bv, rv); }
 
   // Red-black Gauss-Seidel: colours in the given order, `sweeps` times.
   void smooth(Field& xv, const Field& bv, int sweeps, int first_colour) const {
@@ -157,7 +138,7 @@ void fill_periodic_ghosts(const Grid& g, Field& x) {
 
 struct NeumannLaplacian::Impl {
   std::vector<Level> levels;
-  mutable Field r, rold, z, zold, p, q;
+  mutable Field r, rold, z, zold, p, q, rhs;
 
   // V-cycle on level l: L.x from zero for the right-hand side L.b.
   void vcycle(std::size_t l) const {
@@ -285,7 +266,7 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     levels.push_back(std::move(C));
   }
   const Shape s = levels[0].s;
-  for (Field* f : {&impl_->r, &impl_->rold, &impl_->z, &impl_->zold, &impl_->p, &impl_->q}) *f = Field(s);
+  for (Field* f : {&impl_->r, &impl_->rold, &impl_->z, &impl_->zold, &impl_->p, &impl_->q, &impl_->rhs}) *f = Field(s);
 }
 
 NeumannLaplacian::~NeumannLaplacian() = default;
@@ -314,7 +295,8 @@ LaplaceStats NeumannLaplacian::solve(Field& x, const Field& bin, double rtol, in
   const Shape& s = L.s;
   LaplaceStats st;
   // b without its mean over the active cells (the compatible part), x zero where inactive
-  Field b = bin;
+  m.rhs = bin;  // the work array's storage is reused from call to call
+  Field& b = m.rhs;
   double sum = 0;
   std::size_t count = 0;
   for (int k = 1; k <= s.nz; ++k)

@@ -1,6 +1,7 @@
 // Force partitioning of the loads on immersed parts (partition.hpp, docs/theory/force-partitioning.md).
 #include "cfd/fpm/partition.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -10,33 +11,34 @@ namespace flapstab::fpm {
 
 namespace {
 
-// A face of the domain next to a fluid cell (no-flux for the potentials): outward normal sign e_d.
-struct OuterFace {
-  std::ptrdiff_t cell;
-  int d, side;  // face index F = 1 (side 0) or n+1 (side 1) along d
-  int i, j, k;  // the cell
-  double area;
-};
+// The normal velocity u_d on every face of the domain's boundary planes (d non-periodic; plane 2 d + side), each
+// plane indexed by plane_index.
+std::size_t plane_index(const Shape& s, int d, int i, int j, int k) {
+  const int I[3] = {i, j, k};
+  const int e = (d + 1) % 3, f = (d + 2) % 3;
+  return std::size_t(I[f] - 1) * std::size_t(s.n(e)) + std::size_t(I[e] - 1);
+}
 
-std::vector<OuterFace> outer_faces_of(const Grid& g, const FluidGeometry& o) {
-  std::vector<OuterFace> out;
-  const Shape& s = o.shape;
+std::array<std::vector<double>, 6> boundary_normal_velocities(const Grid& g, const ns::VectorField& u) {
+  std::array<std::vector<double>, 6> planes;
+  const Shape s = g.shape();
   for (int d = 0; d < 3; ++d) {
     if (g.axis[std::size_t(d)].periodic) continue;
     const int e = (d + 1) % 3, f = (d + 2) % 3;
-    for (int side = 0; side < 2; ++side)
-      for (int k = 1; k <= s.nz; ++k)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int i = 1; i <= s.nx; ++i) {
-            const int I[3] = {i, j, k};
-            if (I[d] != (side == 0 ? 1 : s.n(d))) continue;
-            const std::ptrdiff_t n = s(i, j, k);
-            if (!o.active(n)) continue;
-            out.push_back({n, d, side, i, j, k,
-                           g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(f)].dc[std::size_t(I[f])]});
-          }
+    for (int side = 0; side < 2; ++side) {
+      auto& plane = planes[std::size_t(2 * d + side)];
+      plane.assign(std::size_t(s.n(e)) * std::size_t(s.n(f)), 0.0);
+      for (int b = 1; b <= s.n(f); ++b)
+        for (int a = 1; a <= s.n(e); ++a) {
+          int F[3];
+          F[d] = side == 0 ? 1 : s.n(d) + 1;
+          F[e] = a;
+          F[f] = b;
+          plane[std::size_t(b - 1) * std::size_t(s.n(e)) + std::size_t(a - 1)] = u[d](F[0], F[1], F[2]);
+        }
+    }
   }
-  return out;
+  return planes;
 }
 
 // The Neumann datum of component k integrated over a surface piece: int n_k dS, or int ((x - x0) x n)_(k-3) dS.
@@ -78,11 +80,28 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
   geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples));
   const FluidGeometry& o = *geometry_;
   const NeumannLaplacian L(g, o);
-  const std::vector<OuterFace> outer = outer_faces_of(g, o);
-  double outer_area = 0;
-  for (const auto& f : outer)
-    if (L.active(f.i, f.j, f.k)) outer_area += f.area;
   const Shape s = g.shape();
+  // the domain's faces next to active (fluid) cells
+  outer_.clear();
+  outer_area_ = 0;
+  for (int d = 0; d < 3; ++d) {
+    if (g.axis[std::size_t(d)].periodic) continue;
+    const int e = (d + 1) % 3, f = (d + 2) % 3;
+    for (int side = 0; side < 2; ++side)
+      for (int b = 1; b <= s.n(f); ++b)
+        for (int a = 1; a <= s.n(e); ++a) {
+          int I[3];
+          I[d] = side == 0 ? 1 : s.n(d);
+          I[e] = a;
+          I[f] = b;
+          if (!L.active(I[0], I[1], I[2])) continue;
+          const double area = g.axis[std::size_t(e)].dc[std::size_t(a)] * g.axis[std::size_t(f)].dc[std::size_t(b)];
+          outer_.push_back({s(I[0], I[1], I[2]), d, side, I[0], I[1], I[2], area});
+          outer_area_ += area;
+        }
+  }
+  const auto& outer = outer_;
+  const double outer_area = outer_area_;
   if (phi_.size() != std::size_t(parts)) {
     phi_.assign(std::size_t(parts), {});
     for (auto& a : phi_)
@@ -104,8 +123,7 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       // Where part p's wetted staircase is not closed (it touches another part), the fluxes do not sum to zero;
       // the remainder leaves through the domain's faces, spread by area (a far-field source).
       if (outer_area > 0)
-        for (const auto& f : outer)
-          if (L.active(f.i, f.j, f.k)) b[f.cell] -= total * f.area / outer_area;
+        for (const auto& f : outer) b[f.cell] -= total * f.area / outer_area;
       PotentialReport r;
       r.part = p;
       r.component = k;
@@ -115,8 +133,7 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       // phi -> 0 far away: its area-weighted mean over the cells on the domain's faces is zero.
       double mean = 0;
       if (outer_area > 0) {
-        for (const auto& f : outer)
-          if (L.active(f.i, f.j, f.k)) mean += phi[f.cell] * f.area / outer_area;
+        for (const auto& f : outer) mean += phi[f.cell] * f.area / outer_area;
         for (int kk = 1; kk <= s.nz; ++kk)
           for (int j = 1; j <= s.ny; ++j)
             for (int i = 1; i <= s.nx; ++i)
@@ -143,7 +160,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   const double mu = rho * solver.options().nu;
   const ns::VectorField& u = solver.velocity();
   const Field& p = solver.pressure();
-  const std::vector<OuterFace> outer = outer_faces_of(g, o);
+  const auto& outer = outer_;
   const Vec3& x0 = opt_.moment_point;
 
   // Q at the cell centres (the solver's velocity, forced values inside the parts included)
@@ -153,7 +170,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   // Du/Dt . n on the domain's faces next to fluid cells
   std::vector<double> dudt_n(outer.size(), 0.0);
   const double t = solver.time();
-  std::array<std::vector<double>, 6> un_now;
+  std::array<std::vector<double>, 6> un_now = boundary_normal_velocities(g, u);
   {
     std::size_t m = 0;
     for (const auto& f : outer) {
@@ -185,14 +202,50 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         const double dx = aa.xc[std::size_t(P[a])] - aa.xc[std::size_t(M[a])];
         conv += ua * (ud(P[0], P[1], P[2]) - ud(M[0], M[1], M[2])) / dx;
       }
-      const int face_id = 2 * d + f.side;
-      un_now[std::size_t(face_id)].push_back(un);
-      double dt_term = 0;
-      const auto& prev = un_prev_[std::size_t(face_id)];
-      const std::size_t idx = un_now[std::size_t(face_id)].size() - 1;
-      if (have_prev_ && t > t_prev_ && idx < prev.size()) dt_term = (un - prev[idx]) / (t - t_prev_);
+      // d u_n / dt from the previous record of the same face (none at the first call)
+      const std::size_t plane = std::size_t(2 * d + f.side), idx = plane_index(s, d, f.i, f.j, f.k);
+      const auto& prev = un_prev_[plane];
+      const double dt_term =
+          have_prev_ && t > t_prev_ && idx < prev.size() ? (un - prev[idx]) / (t - t_prev_) : 0.0;
       dudt_n[m++] = (dt_term + conv) * (f.side == 0 ? -1.0 : 1.0);
     }
+  }
+
+  // mu lap u . grad phi per open face (both cells fluid) without grad phi: the MAC Laplacian of u_d at the face
+  // times its open area beta A (the same for every potential, so computed once)
+  ns::VectorField lap_area(s);
+  for (int d = 0; d < 3; ++d) {
+    const ns::Axis& ad = g.axis[std::size_t(d)];
+    const int e = (d + 1) % 3, h = (d + 2) % 3;
+    const Field& ud = u[d];
+    Field& w = lap_area[d];
+    w.fill(0);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int ii = 1; ii <= s.nx; ++ii) {
+          const int I[3] = {ii, j, kk};
+          if (!ad.periodic && I[d] == 1) continue;
+          const double beta = o.aperture[std::size_t(d)](ii, j, kk);
+          if (beta <= 0) continue;
+          int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
+          ++A[d];
+          --B[d];
+          const std::size_t F = std::size_t(I[d]);
+          double lap = ((ud(A[0], A[1], A[2]) - ud(ii, j, kk)) * ad.idc[F] -
+                        (ud(ii, j, kk) - ud(B[0], B[1], B[2])) * ad.idc[F - 1]) * ad.idf[F];
+          for (int a : {e, h}) {
+            const ns::Axis& aa = g.axis[std::size_t(a)];
+            int Pp[3] = {ii, j, kk}, Mm[3] = {ii, j, kk};
+            ++Pp[a];
+            --Mm[a];
+            const std::size_t J = std::size_t(I[a]);
+            lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(ii, j, kk)) * aa.idf[J + 1] -
+                    (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
+          }
+          const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+          w(ii, j, kk) = lap * beta * area;
+        }
   }
 
   std::vector<PartPartition> out(static_cast<std::size_t>(parts));
@@ -211,46 +264,39 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         if (c.part == i) direct -= p[c.cell] * datum(c, k, x0);
       }
       double vortex = 0;
+      std::vector<double> by_region(std::size_t(std::max(region_count_, 1)), 0.0);
+      if (region_count_ > 0) {
+        double* acc = by_region.data();
+        const int nr = region_count_;
+        const int* label = region_labels_.data();
+#pragma omp parallel for schedule(static) reduction(+ : acc[:nr]) if (ns::threaded(s))
+        for (int kk = 1; kk <= s.nz; ++kk)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int ii = 1; ii <= s.nx; ++ii) {
+              const std::size_t n = flat(ii, j, kk);
+              acc[label[n]] += q_[n] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
+            }
+        for (double v : by_region) vortex += v;
+        P.vortex_regions.resize(std::size_t(nr), Vec6::Zero());
+        for (int r = 0; r < nr; ++r) P.vortex_regions[std::size_t(r)][k] = -2 * rho * by_region[std::size_t(r)];
+      } else {
 #pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int ii = 1; ii <= s.nx; ++ii)
-            vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
-      // mu int lap u . grad phi over the open faces (both cells fluid)
+        for (int kk = 1; kk <= s.nz; ++kk)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int ii = 1; ii <= s.nx; ++ii)
+              vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
+      }
+      // mu int lap u . grad phi over the open faces: grad phi df beta A = (phi_h - phi_l) beta A
       double visc = 0;
       for (int d = 0; d < 3; ++d) {
-        const ns::Axis& ad = g.axis[std::size_t(d)];
-        const int e = (d + 1) % 3, h = (d + 2) % 3;
-        const Field& ud = u[d];
+        const Field& w = lap_area[d];
+        const std::ptrdiff_t step = s.stride(d);
 #pragma omp parallel for schedule(static) reduction(+ : visc) if (ns::threaded(s))
         for (int kk = 1; kk <= s.nz; ++kk)
           for (int j = 1; j <= s.ny; ++j)
             for (int ii = 1; ii <= s.nx; ++ii) {
-              const int I[3] = {ii, j, kk};
-              if (!ad.periodic && I[d] == 1) continue;
-              const double beta = o.aperture[std::size_t(d)](ii, j, kk);
-              if (beta <= 0) continue;
-              int lo[3] = {ii, j, kk};
-              --lo[d];
-              const std::ptrdiff_t nh = s(ii, j, kk), nl = s(lo[0], lo[1], lo[2]);
-              // the MAC Laplacian of u_d at this face
-              int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
-              ++A[d];
-              --B[d];
-              const std::size_t F = std::size_t(I[d]);
-              double lap = ((ud(A[0], A[1], A[2]) - ud(ii, j, kk)) * ad.idc[F] -
-                            (ud(ii, j, kk) - ud(B[0], B[1], B[2])) * ad.idc[F - 1]) * ad.idf[F];
-              for (int a : {e, h}) {
-                const ns::Axis& aa = g.axis[std::size_t(a)];
-                int Pp[3] = {ii, j, kk}, Mm[3] = {ii, j, kk};
-                ++Pp[a];
-                --Mm[a];
-                const std::size_t J = std::size_t(I[a]);
-                lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(ii, j, kk)) * aa.idf[J + 1] -
-                        (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
-              }
-              const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
-              visc += lap * (phi[nh] - phi[nl]) * beta * area;  // grad phi df beta A = (phi_h - phi_l) beta A
+              const std::ptrdiff_t nh = s(ii, j, kk);
+              if (w[nh] != 0) visc += w[nh] * (phi[nh] - phi[nh - step]);
             }
       }
       double outer_term = 0;
@@ -275,6 +321,24 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   t_prev_ = t;
   have_prev_ = true;
   return out;
+}
+
+void ForcePartition::set_regions(std::vector<int> labels, int count) {
+  if (!labels.empty()) {
+    if (labels.size() != grid_->shape().cells())
+      throw std::invalid_argument("force partitioning: region labels for " + std::to_string(labels.size()) +
+                                  " cells, the grid has " + std::to_string(grid_->shape().cells()));
+    for (int l : labels)
+      if (l < 0 || l >= count) throw std::invalid_argument("force partitioning: a region label outside 0 .. count - 1");
+  }
+  region_labels_ = std::move(labels);
+  region_count_ = region_labels_.empty() ? 0 : count;
+}
+
+void ForcePartition::record_boundary(const ns::Solver& solver) {
+  un_prev_ = boundary_normal_velocities(*grid_, solver.velocity());
+  t_prev_ = solver.time();
+  have_prev_ = true;
 }
 
 Eigen::Matrix<double, 6, 6> ForcePartition::added_mass(int i, int j, double rho) const {

@@ -40,6 +40,7 @@ struct PartPartition {
   Vec6 viscous = Vec6::Zero();      // mu int lap u . grad phi dV
   Vec6 outer = Vec6::Zero();        // -rho oint_domain phi Du/Dt . n dS
   Vec6 pressure = Vec6::Zero();     // -oint p g dS on the staircase surface (the partition's sum, computed directly)
+  std::vector<Vec6> vortex_regions; // the vortex-induced part by region (set_regions; empty without), summing to vortex
   // Rate of work of the part on the fluid by mechanism, W: -(F . v(x0) + M . omega) with the part's rigid velocity.
   double power_kinematic = 0, power_vortex = 0, power_viscous = 0, power_outer = 0, power_pressure = 0;
   Vec6 sum() const { return kinematic + vortex + viscous + outer; }
@@ -88,6 +89,12 @@ class ForcePartition {
   // -2 rho Q phi at the cell centres for (part, component) from the last partition (N/m^3 for a force component):
   // the vortex-induced force density whose volume integral is that part's vortex term. Interior cells, x fastest.
   std::vector<double> vortex_density(int part, int component) const;
+  // Labels of the interior cells (x fastest) by region, 0 .. count - 1: partition() then splits each vortex-induced part
+  // over them (PartPartition::vortex_regions). An empty vector switches the split off.
+  void set_regions(std::vector<int> labels, int count);
+  // Keeps the normal velocities on the domain's faces at the solver's time: the outer term's d u_n / dt at the next
+  // partition() is then a difference over one step (a run's observer calls this every step; partition() does it too).
+  void record_boundary(const ns::Solver& solver);
   const FpmOptions& options() const { return opt_; }
   const std::vector<PotentialReport>& reports() const { return reports_; }
 
@@ -98,8 +105,19 @@ class ForcePartition {
   std::vector<std::array<Field, 6>> phi_;  // per part
   std::vector<PotentialReport> reports_;
   std::vector<double> q_;                   // last partition's Q at the cell centres
+  std::vector<int> region_labels_;          // per interior cell (set_regions)
+  int region_count_ = 0;
   double rho_ = 0;
-  // previous boundary normal velocities for d u_n / dt (per domain face, per boundary face)
+  // The domain's faces next to fluid cells (no-flux for the potentials), from the last update()
+  struct DomainFace {
+    std::ptrdiff_t cell;
+    int d, side;  // face index F = 1 (side 0) or n+1 (side 1) along d
+    int i, j, k;  // the cell
+    double area;
+  };
+  std::vector<DomainFace> outer_;
+  double outer_area_ = 0;
+  // previous normal velocities on the domain's faces (per face 2 d + side, indexed by the cell's position in it)
   std::array<std::vector<double>, 6> un_prev_;
   double t_prev_ = 0;
   bool have_prev_ = false;

@@ -711,26 +711,11 @@ double ImmersedBoundary::solid_level_set(int part, const PartState& st, const Ve
 }
 
 std::vector<double> ImmersedBoundary::solid_mask(double t) const {
-  const Shape sh = impl_->grid.shape();
-  std::vector<double> mask(std::size_t(sh.nx) * sh.ny * sh.nz, 0.0);
-  const Grid& g = impl_->grid;
-  for (std::size_t n = 0; n < impl_->parts.size(); ++n) {
-    const auto& p = impl_->parts[n];
-    const RigidTransform pose = state(int(n), t).pose;
-    BoundingBox b = transformed_box(p.box, pose, 0);
-    if (p.mesh.membrane) b = transformed_box(p.box, pose, (impl_->opt.membrane_half_thickness + 1) * impl_->max_width(b));
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) index_range(g.axis[a].xc, 1, g.axis[a].n, b.lo[a], b.hi[a], lo[a], hi[a]);
-#pragma omp parallel for schedule(static)
-    for (int k = lo[2]; k <= hi[2]; ++k)
-      for (int j = lo[1]; j <= hi[1]; ++j)
-        for (int i = lo[0]; i <= hi[0]; ++i) {
-          const Vec3 x(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]);
-          const double h = std::max({g.axis[0].dc[std::size_t(i)], g.axis[1].dc[std::size_t(j)], g.axis[2].dc[std::size_t(k)]});
-          if (impl_->phi(p, pose, x, h) < 0)
-            mask[(std::size_t(k - 1) * sh.ny + std::size_t(j - 1)) * sh.nx + std::size_t(i - 1)] = 1.0;
-        }
-  }
+  std::vector<PartState> states;
+  for (std::size_t n = 0; n < impl_->parts.size(); ++n) states.push_back(state(int(n), t));
+  const std::vector<int> owners = cell_owners(states);
+  std::vector<double> mask(owners.size(), 0.0);
+  for (std::size_t c = 0; c < owners.size(); ++c) mask[c] = owners[c] >= 0 ? 1.0 : 0.0;
   return mask;
 }
 

@@ -117,6 +117,7 @@ void Checkpointer::write(const Simulation& sim) {
   // forces.csv first: a kill between the two leaves rows beyond the newest checkpoint (dropped on restart), never
   // a checkpoint beyond the rows.
   if (csv_) csv_->flush();
+  for (const auto& f : flush_) f();
   write_state(path, sim.state(), values_, text_);
   last_ = path;
   last_step_ = sim.step();
@@ -130,16 +131,12 @@ void Checkpointer::on_step(const Simulation& sim, const StepReport& r) {
 
 // ---- fields and surfaces ---------------------------------------------------------------------------------------
 
-namespace {
-
 RectilinearAxes rectilinear(const Grid& g) {
   RectilinearAxes a;
   std::vector<double>* out[3] = {&a.x, &a.y, &a.z};
   for (int d = 0; d < 3; ++d) out[d]->assign(g.axis[d].xf.begin() + 1, g.axis[d].xf.begin() + g.axis[d].n + 2);
   return a;
 }
-
-}  // namespace
 
 void FieldOutput::write(const Simulation& sim) {
   const Grid& grid = sim.grid();

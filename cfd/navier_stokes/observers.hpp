@@ -2,6 +2,7 @@
 // (forces.csv, flow fields, surfaces, checkpoints, progress, run.json; docs/cfd-files.md).
 #pragma once
 #include <chrono>
+#include <functional>
 #include <iosfwd>
 #include <map>
 #include <memory>
@@ -61,6 +62,8 @@ class Checkpointer final : public StepObserver {
     if (last_step_ != sim.step()) write(sim);
   }
   void set_last(std::string path, long step) { last_ = std::move(path), last_step_ = step; }
+  // Another file to flush before each checkpoint (as forces.csv: its rows always reach the newest checkpoint).
+  void also_flush(std::function<void()> f) { flush_.push_back(std::move(f)); }
   const std::string& last() const { return last_; }
   long last_step() const { return last_step_; }
 
@@ -70,6 +73,7 @@ class Checkpointer final : public StepObserver {
   std::map<std::string, double> values_;
   std::map<std::string, std::string> text_;
   const ForcesCsv* csv_;
+  std::vector<std::function<void()>> flush_;
   int keep_;
   std::string last_;
   long last_step_ = -1;
@@ -137,6 +141,8 @@ class ProgressLog final : public StepObserver {
 };
 
 std::string fmt_seconds(double s);
+// The cell-face coordinates of a grid's interior cells (the field files' axes).
+RectilinearAxes rectilinear(const Grid& g);
 // The checkpoint files checkpoint_STEP.h5 in a directory, by step.
 std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir);
 

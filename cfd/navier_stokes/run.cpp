@@ -110,6 +110,17 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
                   "pressure part, v = viscous part, P = the part's rate of work on the air); F{x,y,z}_N, "
                   "M{x,y,z}_N_m = totals; wing_power_W = the wings' work on the air through their motion relative "
                   "to the body"}};
+  if (!res.fpm_means_json.empty()) {
+    j["fpm"] = nlohmann::json::parse(res.fpm_means_json);
+    j["files"]["fpm.csv"] = {
+        {"rows", "one per force-partitioning sample, part and component; one header row"},
+        {"axes", "as forces.csv: hover stability axes S, moments about O"},
+        {"units", "the row's unit column: N (Fx Fy Fz), N m (Mx My Mz), W (power: the part's work on the air)"},
+        {"columns", "pressure = the cut-cell pressure load the partition sums to; kinematic = added_mass + centripetal "
+                    "(acceleration reaction); vortex, viscous, outer; sum = kinematic + vortex + viscous + outer; "
+                    "solver_pressure, solver_viscous = the run's loads (forces.csv); vortex.REGION = the vortex-induced "
+                    "part by region of the flow"}};
+  }
   write_file_atomic(path, j.dump(2) + "\n");
 }
 
@@ -231,6 +242,14 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   ProgressLog progress(log, o.progress_seconds, total_steps, t_end);
   std::vector<StepObserver*> observers = {&csv, &progress};
   if (write) observers.insert(observers.end(), {&fields, &surfaces, &checkpoints});
+  // Force partitioning: before the checkpoints in the list, so a checkpoint's flush holds this step's sample.
+  std::optional<fpm::FpmObserver> partition;
+  if (s.fpm.enabled && o.bodies) {
+    partition.emplace(sim, s.fpm, write ? o.directory : std::string());
+    if (write && ck) partition->keep_earlier(o.directory + "/fpm.csv", start_step);
+    observers.insert(observers.begin() + 1, &*partition);
+    checkpoints.also_flush([&] { partition->flush(); });
+  }
 
   auto diverged = [&](const StepFailure& e) -> SolveError {
     try {
@@ -275,6 +294,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     if (o.stop_after_steps > 0 && sim.step() >= o.stop_after_steps && in_run(sim.step(), sim.time())) {
       finish();
       csv.flush();
+      if (partition) partition->flush();
       return res;
     }
     if (const int sig = interrupt_requested(); sig != 0 && in_run(sim.step(), sim.time())) {
@@ -295,7 +315,23 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     }
   }
   finish();
-  if (o.dry_run) return res;
+  if (o.dry_run) {
+    if (partition && log) {  // the cost of one partition against the steps between two
+      const auto t0 = clock::now();
+      partition->sample(sim);
+      const double sample_s = std::chrono::duration<double>(clock::now() - t0).count();
+      const double steps_per_sample =
+          (plan.steps_per_cycle > 0 ? plan.steps_per_cycle : plan.period / std::max(sim.last_dt(), 1e-300)) /
+          s.fpm.samples_per_cycle;
+      const double step_s = progress.seconds_per_step_estimate();
+      *log << fmt::format("  force partitioning: {:.3g} s per sample ({} potentials, {:.0f} iterations each on "
+                          "average, from rest), {} samples per wingbeat: about {:.2f} x the cost of the run without\n",
+                          sample_s, partition->components().size() * s.fpm.parts.size(),
+                          partition->mean_potential_iterations(), s.fpm.samples_per_cycle,
+                          step_s > 0 ? 1 + sample_s / (steps_per_sample * step_s) : 0.0);
+    }
+    return res;
+  }
   if (res.status.empty()) res.status = "complete";
 
   // Rows of the last wingbeat, with the one at its start when the run has it (the previous wingbeat's last step).
@@ -303,12 +339,25 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   std::vector<CfdLoadRow> all = csv.earlier();
   all.insert(all.end(), csv.rows().begin(), csv.rows().end());
   res.result = cfd_run_result(all, plan, weight);
+  if (partition) {
+    res.fpm_rows = partition->rows();
+    res.fpm_regions = partition->region_names();
+    res.fpm_seconds = partition->seconds();
+    if (res.result.available) {
+      res.fpm_means_json = partition->means(res.result.from_s, res.result.to_s, plan.period, weight).dump();
+      res.fpm_summary = partition->summary(res.result.from_s, res.result.to_s, plan.period);
+    }
+  }
   if (write) {
     for (auto* ob : observers) ob->on_end(sim);
     write_run_json(o.directory + "/run.json", c, hash, sim, res);
     for (const std::string& d : {o.directory, ckdir, o.directory + "/fields", o.directory + "/surfaces"})
       remove_stale_temporaries(d);  // left by killed runs
   }
+  if (log && !res.fpm_summary.empty()) *log << res.fpm_summary;
+  if (log && partition)
+    *log << fmt::format("  force partitioning: {} samples in {} ({:.0f} potential iterations per solve on average)\n",
+                        partition->samples(), fmt_seconds(res.fpm_seconds), partition->mean_potential_iterations());
   if (log)
     *log << fmt::format("  done: {} steps in {}, {:.3g} s per step ({:.0f} ns per cell per step)\n",
                         res.steps - res.start_step, fmt_seconds(res.wall_seconds), res.seconds_per_step,

@@ -8,6 +8,7 @@
 #include <iosfwd>
 #include <string>
 #include <vector>
+#include "cfd/fpm/observer.hpp"
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/forces_csv.hpp"
 #include "cfd/navier_stokes/plan.hpp"
@@ -63,6 +64,13 @@ struct CfdResult {
   std::string restarted_from;    // checkpoint path
   std::string status;            // "complete", "stopped" (--steps), "nothing to do" (a restart of a finished run)
   CfdRunResult result;
+  // Force partitioning ([aero.cfd.fpm]; cfd/fpm/observer.hpp): every row (restart: with the interrupted run's), the
+  // region names of the vortex columns, the wingbeat means of run.json and the terminal summary.
+  std::vector<fpm::FpmRow> fpm_rows;
+  std::vector<std::string> fpm_regions;
+  std::string fpm_means_json;  // the "fpm" object of run.json ("" without force partitioning)
+  std::string fpm_summary;
+  double fpm_seconds = 0;      // wall time spent partitioning
 };
 
 // The result over rows `rows` (earlier and this run's) of a run of `plan` at time `t_end_run` (see CfdRunResult).

@@ -159,6 +159,11 @@ double Simulation::time() const { return impl_->solver.time(); }
 std::size_t Simulation::cells() const { return grid().cells(); }
 std::size_t Simulation::bytes() const { return impl_->solver.bytes() + (impl_->ib ? impl_->ib->bytes() : 0); }
 bool Simulation::has_bodies() const { return impl_->ib.has_value(); }
+const ImmersedBoundary* Simulation::immersed() const { return impl_->ib ? &*impl_->ib : nullptr; }
+std::vector<PartState> Simulation::part_states() const {
+  if (!impl_->ib) return {};
+  return impl_->motion.parts(time());
+}
 
 void Simulation::restore(const SimulationState& s, const BodyMotion& state_motion) {
   const Shape sh = grid().shape();

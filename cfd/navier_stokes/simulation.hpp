@@ -100,6 +100,10 @@ class Simulation {
   // Surface of a part (0 body, 1 right, 2 left) at the current time, grid axes, and its pressure (Pa).
   TriangleMesh surface(int part) const;
   SurfacePressure surface_pressure(int part) const;
+  // The parts' kinematics at the current time (body, right, left; grid axes); empty without bodies.
+  std::vector<PartState> part_states() const;
+  // The immersed boundary holding the parts (nullptr for a body-free simulation).
+  const ImmersedBoundary* immersed() const;
   // 1 in cells inside a part at the current time, else 0 (ImmersedBoundary::solid_mask; all 0 without bodies).
   std::vector<double> solid_mask() const;
 

@@ -1,0 +1,355 @@
+// Force partitioning during a CFD run (observer.hpp).
+#include "cfd/fpm/observer.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include "core/atomic_write.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::fpm {
+
+namespace {
+
+constexpr const char* kComponents[7] = {"Fx", "Fy", "Fz", "Mx", "My", "Mz", "power"};
+constexpr const char* kUnits[7] = {"N", "N", "N", "N m", "N m", "N m", "W"};
+constexpr int kFixedColumns = 16;  // time .. solver_viscous
+
+int part_index(const std::string& name) {
+  for (int i = 0; i < 3; ++i)
+    if (name == ns::part_names[i]) return i;
+  throw std::invalid_argument("unknown part \"" + name + "\"");
+}
+
+}  // namespace
+
+const char* component_name(int k) {
+  if (k < 0 || k > power_component) throw std::invalid_argument("load component " + std::to_string(k));
+  return kComponents[k];
+}
+
+int component_index(const std::string& name) {
+  for (int k = 0; k <= power_component; ++k)
+    if (name == kComponents[k]) return k;
+  throw std::invalid_argument("unknown load component \"" + name + "\" (Fx Fy Fz Mx My Mz power)");
+}
+
+std::string fpm_csv_header(const std::vector<std::string>& region_names) {
+  std::string h =
+      "time_s,step,phase,part,component,unit,pressure,kinematic,added_mass,centripetal,vortex,viscous,outer,sum,"
+      "solver_pressure,solver_viscous";
+  for (const auto& r : region_names) h += ",vortex." + r;
+  return h;
+}
+
+std::string fpm_csv_row(const FpmRow& r) {
+  std::string s = fmt::format("{:.17g},{},{:.17g},{},{},{}", r.time, r.step, r.phase, ns::part_names[r.part],
+                              component_name(r.component), kUnits[r.component]);
+  for (double v : {r.pressure, r.kinematic, r.added_mass(), r.centripetal, r.vortex, r.viscous, r.outer, r.sum(),
+                   r.solver_pressure, r.solver_viscous})
+    s += fmt::format(",{:.17g}", v);
+  for (double v : r.regions) s += fmt::format(",{:.17g}", v);
+  return s;
+}
+
+FpmRow parse_fpm_csv_row(const std::string& line, std::size_t regions) {
+  std::vector<std::string> f;
+  std::stringstream ss(line);
+  for (std::string item; std::getline(ss, item, ',');) f.push_back(item);
+  if (f.size() != kFixedColumns + regions)
+    throw std::invalid_argument(fmt::format("{} columns where {} belong", f.size(), kFixedColumns + regions));
+  auto num = [&](std::size_t i) {
+    std::size_t used = 0;
+    const double v = std::stod(f[i], &used);
+    if (used != f[i].size()) throw std::invalid_argument("not a number: " + f[i]);
+    return v;
+  };
+  FpmRow r;
+  r.time = num(0);
+  r.step = std::stol(f[1]);
+  r.phase = num(2);
+  r.part = part_index(f[3]);
+  r.component = component_index(f[4]);
+  r.pressure = num(6);
+  r.kinematic = num(7);
+  r.centripetal = num(9);
+  r.vortex = num(10);
+  r.viscous = num(11);
+  r.outer = num(12);
+  r.solver_pressure = num(14);
+  r.solver_viscous = num(15);
+  for (std::size_t i = 0; i < regions; ++i) r.regions.push_back(num(kFixedColumns + i));
+  return r;
+}
+
+FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings, std::string directory)
+    : settings_(settings), dir_(std::move(directory)) {
+  const std::string& file = sim.case_file().path;
+  if (!sim.has_bodies())
+    throw InputError(file, "aero.cfd.fpm", "force partitioning needs the insect's parts (a body-free run)",
+                     "a run with bodies");
+  if (sim.motion().rate.squaredNorm() > 0)
+    throw InputError(file, "aero.cfd.fpm",
+                     "force partitioning is derived for an inertial grid frame; this run's grid turns with the body "
+                     "(rates p, q, r)",
+                     "a hover or a translating body");
+  for (const auto& c : settings.components) components_.push_back(component_index(c));
+  for (const auto& p : settings.parts) parts_.push_back(part_index(p));
+  for (const auto& r : settings.regions) regions_.push_back(wing_region(r));
+  region_size_ = settings.region_size_chords * sim.case_file().insect.wing.mean_chord;
+  rho_ = sim.plan().rho;
+  FpmOptions opt;
+  opt.rtol = settings.tolerance;
+  opt.components = components_;
+  opt.moment_point = Vec3::Zero();  // O, the grid's origin: the moments of forces.csv
+  partition_.emplace(sim.grid(), opt);
+  region_names_.push_back("wake");
+  for (const char* w : {"right", "left"})
+    for (WingRegion r : regions_) region_names_.push_back(std::string(w) + "." + region_name(r));
+}
+
+void FpmObserver::keep_earlier(const std::string& file, long step) {
+  std::ifstream in(file);
+  if (!in)
+    throw InputError(file, "", "missing or unreadable: a restart from step " + std::to_string(step) +
+                                   " needs the force partition of the interrupted run up to that step",
+                     "the fpm.csv of the interrupted run");
+  std::string line;
+  long number = 0;
+  const std::string header = fpm_csv_header(region_names_);
+  while (std::getline(in, line)) {
+    ++number;
+    if (number == 1) {
+      if (line != header)
+        throw InputError(file, "line 1", "other columns than this run's [aero.cfd.fpm] writes",
+                         "the header " + header + " (the interrupted run's settings)");
+      continue;
+    }
+    FpmRow r;
+    try {
+      r = parse_fpm_csv_row(line, region_names_.size());
+    } catch (const std::exception& e) {
+      break;  // a row cut by the kill: rows past the checkpoint are dropped anyway
+    }
+    if (r.step > step) break;
+    rows_.push_back(r);
+    lines_.push_back(line + "\n");
+  }
+}
+
+void FpmObserver::on_step(const ns::Simulation& sim, const ns::StepReport& r) {
+  const double T = sim.plan().period;
+  const bool fields = ns::crossed(settings_.fields_per_cycle, T, r.t_before, r.time) && !dir_.empty();
+  if (ns::crossed(settings_.samples_per_cycle, T, r.t_before, r.time) || fields) sample(sim);
+  else partition_->record_boundary(sim.solver());
+  if (fields) write_fields(sim);
+}
+
+std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  const std::vector<ns::PartState> states = sim.part_states();
+  const auto& reports = partition_->update(*sim.immersed(), states);
+  for (const auto& rep : reports) {
+    ++solves_;
+    iterations_ += rep.stats.iterations;
+  }
+  // regions in the wings' frames at this instant
+  const Wing& wing = sim.case_file().insect.wing;
+  std::vector<RegionWing> wings = {{"right", &wing, states[1].pose}, {"left", &wing, states[2].pose}};
+  RegionSet set = label_regions(sim.grid(), wings, regions_, region_size_);
+  partition_->set_regions(std::move(set.labels), set.count());
+  const std::vector<PartPartition> parts = partition_->partition(sim.solver(), states, rho_);
+  const ns::CfdLoadRow loads = sim.loads();
+  std::vector<FpmRow> out;
+  auto row = [&](int part, int k) {
+    FpmRow r;
+    r.time = loads.time;
+    r.step = sim.step();
+    r.phase = loads.phase;
+    r.part = part;
+    r.component = k;
+    return r;
+  };
+  for (int i : parts_) {
+    const PartPartition& P = parts[std::size_t(i)];
+    const auto& L = loads.part[i];
+    for (int k : components_) {
+      FpmRow r = row(i, k);
+      r.pressure = P.pressure[k];
+      r.kinematic = P.kinematic[k];
+      r.centripetal = P.centripetal[k];
+      r.vortex = P.vortex[k];
+      r.viscous = P.viscous[k];
+      r.outer = P.outer[k];
+      r.solver_pressure = k < 3 ? L.pressure_force[k] : L.pressure_moment[k - 3];
+      r.solver_viscous = k < 3 ? L.viscous_force[k] : L.viscous_moment[k - 3];
+      for (const Vec6& v : P.vortex_regions) r.regions.push_back(v[k]);
+      out.push_back(r);
+    }
+    if (components_.size() == 6) {  // the part's rate of work on the fluid by mechanism
+      FpmRow r = row(i, power_component);
+      r.pressure = P.power_pressure;
+      r.kinematic = P.power_kinematic;
+      const Vec3 v0 = states[std::size_t(i)].velocity.at(Vec3::Zero()), w = states[std::size_t(i)].velocity.omega;
+      r.centripetal = -(P.centripetal.head<3>().dot(v0) + P.centripetal.tail<3>().dot(w));
+      r.vortex = P.power_vortex;
+      r.viscous = P.power_viscous;
+      r.outer = P.power_outer;
+      const Vec3 Fp = L.pressure_force, Fv = L.viscous_force, Mp = L.pressure_moment, Mv = L.viscous_moment;
+      r.solver_pressure = -(Fp.dot(v0) + Mp.dot(w));
+      r.solver_viscous = -(Fv.dot(v0) + Mv.dot(w));
+      for (const Vec6& v : P.vortex_regions) r.regions.push_back(-(v.head<3>().dot(v0) + v.tail<3>().dot(w)));
+      out.push_back(r);
+    }
+  }
+  for (const auto& r : out) {
+    rows_.push_back(r);
+    lines_.push_back(fpm_csv_row(r) + "\n");
+  }
+  ++samples_;
+  last_sample_step_ = sim.step();
+  seconds_ += std::chrono::duration<double>(clock::now() - t0).count();
+  return out;
+}
+
+void FpmObserver::write_fields(const ns::Simulation& sim) {
+  if (dir_.empty()) return;
+  if (last_sample_step_ != sim.step()) sample(sim);
+  if (!writer_) writer_.emplace(dir_ + "/fields", "fpm", ns::rectilinear(sim.grid()), ns::FieldPrecision::float32);
+  const Shape s = sim.grid().shape();
+  std::vector<std::vector<double>> store;
+  std::vector<std::pair<std::string, std::string>> names;
+  for (int i : parts_)
+    for (int k : components_) {
+      const Field& phi = partition_->potential(i, k);
+      std::vector<double> v;
+      v.reserve(s.cells());
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) v.push_back(phi(ii, j, kk));
+      const std::string tag = std::string(ns::part_names[i]) + "_" + component_name(k);
+      store.push_back(std::move(v));
+      names.emplace_back("potential_" + tag, k < 3 ? "m" : "m^2");
+      store.push_back(partition_->vortex_density(i, k));
+      names.emplace_back("vortex_force_density_" + tag, k < 3 ? "N/m^3" : "N/m^2");
+    }
+  // the regions as labels (0 wake, then region_names order)
+  const std::vector<ns::PartState> states = sim.part_states();
+  const Wing& wing = sim.case_file().insect.wing;
+  const RegionSet set = label_regions(sim.grid(), {{"right", &wing, states[1].pose}, {"left", &wing, states[2].pose}},
+                                      regions_, region_size_);
+  store.emplace_back(set.labels.begin(), set.labels.end());
+  names.emplace_back("fpm_region", "1");
+  std::vector<ns::CellField> fields;
+  for (std::size_t n = 0; n < store.size(); ++n)
+    fields.push_back(ns::CellField{names[n].first, names[n].second, {ns::CellArray{store[n].data()}}});
+  writer_->write(sim.time(), sim.step(), fields);
+}
+
+void FpmObserver::flush() const {
+  if (dir_.empty()) return;
+  std::string text = fpm_csv_header(region_names_) + "\n";
+  for (const auto& l : lines_) text += l;
+  write_file_atomic(dir_ + "/fpm.csv", text);
+}
+
+namespace {
+
+struct Mean {
+  double n = 0, pressure = 0, kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0, sp = 0, sv = 0;
+  std::vector<double> regions;
+  void add(const FpmRow& r) {
+    ++n;
+    pressure += r.pressure, kinematic += r.kinematic, centripetal += r.centripetal, vortex += r.vortex;
+    viscous += r.viscous, outer += r.outer, sp += r.solver_pressure, sv += r.solver_viscous;
+    regions.resize(r.regions.size(), 0.0);
+    for (std::size_t i = 0; i < r.regions.size(); ++i) regions[i] += r.regions[i];
+  }
+  void finish() {
+    if (n == 0) return;
+    for (double* v : {&pressure, &kinematic, &centripetal, &vortex, &viscous, &outer, &sp, &sv}) *v /= n;
+    for (double& v : regions) v /= n;
+  }
+};
+
+bool in_window(double t, double from, double to, double period) {
+  const double eps = 1e-9 * period;
+  return t > from + eps && t <= to + eps;
+}
+
+}  // namespace
+
+nlohmann::json FpmObserver::means(double from_s, double to_s, double period, double weight) const {
+  nlohmann::json j;
+  j["from_s"] = from_s;
+  j["to_s"] = to_s;
+  j["samples_per_cycle"] = settings_.samples_per_cycle;
+  j["region_size_m"] = region_size_;
+  j["regions"] = region_names_;
+  j["weight_N"] = weight;
+  j["units"] = "N for Fx Fy Fz, N m for Mx My Mz (about O), W for power; stability axes (z down: lift = -Fz)";
+  j["terms"] = "pressure = kinematic + vortex + viscous + outer (+ discretisation error); kinematic = added_mass + "
+               "centripetal (the centripetal acceleration reaction); solver_pressure, solver_viscous = the run's own "
+               "loads (forces.csv)";
+  long samples = 0;
+  nlohmann::json parts;
+  for (int i : parts_)
+    for (int k : components_.size() == 6 ? std::vector<int>{0, 1, 2, 3, 4, 5, power_component} : components_) {
+      Mean m;
+      for (const auto& r : rows_)
+        if (r.part == i && r.component == k && in_window(r.time, from_s, to_s, period)) m.add(r);
+      m.finish();
+      samples = std::max(samples, long(m.n));
+      nlohmann::json c = {{"pressure", m.pressure},   {"kinematic", m.kinematic}, {"added_mass", m.kinematic - m.centripetal},
+                          {"centripetal", m.centripetal}, {"vortex", m.vortex},   {"viscous", m.viscous},
+                          {"outer", m.outer},         {"sum", m.kinematic + m.vortex + m.viscous + m.outer},
+                          {"solver_pressure", m.sp},  {"solver_viscous", m.sv}};
+      nlohmann::json reg;
+      for (std::size_t r = 0; r < m.regions.size() && r < region_names_.size(); ++r) reg[region_names_[r]] = m.regions[r];
+      c["vortex_by_region"] = reg;
+      parts[ns::part_names[i]][component_name(k)] = c;
+    }
+  j["samples"] = samples;
+  j["parts"] = parts;
+  j["cost"] = {{"seconds", seconds_}, {"samples_this_run", samples_}, {"mean_potential_iterations", mean_potential_iterations()}};
+  return j;
+}
+
+std::string FpmObserver::summary(double from_s, double to_s, double period) const {
+  if (std::find(components_.begin(), components_.end(), 2) == components_.end()) return "";
+  Mean m;
+  bool any = false;
+  for (const auto& r : rows_)
+    if (r.part > 0 && r.component == 2 && in_window(r.time, from_s, to_s, period)) {
+      m.add(r);
+      any = true;
+    }
+  if (!any) return "";
+  const bool both = std::find(parts_.begin(), parts_.end(), 1) != parts_.end() &&
+                    std::find(parts_.begin(), parts_.end(), 2) != parts_.end();
+  // the adds ran over both wings' rows: a sum per sample = mean over rows x wings
+  const double w = both ? 2.0 : 1.0;
+  auto lift = [&](double fz) { return -fz * w; };
+  const double L = lift(m.sp + m.sv);
+  auto pc = [&](double fz) { return L != 0 ? 100.0 * lift(fz) / L : 0.0; };
+  std::string s = fmt::format(
+      "  force partition of the wings' lift (-F_z), t = {:.4g} .. {:.4g} s: total {:.4g} N (pressure {:.4g} N, skin "
+      "friction {:.4g} N)\n"
+      "    kinematic {:.1f} % (added mass {:.1f} %, centripetal acceleration reaction {:.1f} %), vortex-induced {:.1f} %, "
+      "viscous {:.1f} %, outer boundary {:.1f} %, skin friction {:.1f} %; closure: partition sum - cut-cell pressure "
+      "force = {:.1f} % of the total\n",
+      from_s, to_s, L, lift(m.sp), lift(m.sv), pc(m.kinematic), pc(m.kinematic - m.centripetal), pc(m.centripetal),
+      pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(m.kinematic + m.vortex + m.viscous + m.outer - m.pressure));
+  if (!m.regions.empty()) {
+    s += "    vortex-induced lift by region:";
+    for (std::size_t r = 0; r < m.regions.size() && r < region_names_.size(); ++r)
+      s += fmt::format(" {} {:.1f} %{}", region_names_[r], pc(m.regions[r]), r + 1 < m.regions.size() ? "," : "\n");
+  }
+  return s;
+}
+
+}  // namespace flapstab::fpm

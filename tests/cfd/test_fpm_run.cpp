@@ -1,0 +1,200 @@
+// Tests for force partitioning during a CFD run ([aero.cfd.fpm], cfd/fpm/observer.hpp): the keys and their bad input,
+// the samples of a flapping moth on a tiny grid (cadence, identities, fpm.csv, run.json, fields), restart.
+// The partition's accuracy is validated on spheres against closed forms in test_fpm.cpp.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
+
+#include "cfd/fpm/observer.hpp"
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/run.hpp"
+#include "common/case_text.hpp"
+#include "common/expect_error.hpp"
+#include "core/errors.hpp"
+
+namespace flapstab::fpm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The test moth with model = "cfd" and a gentle wingbeat (stroke +-10 deg, pitch 90 +- 10 deg) at Re = 20 on a tiny
+// grid (4 cells per mean chord, a fine box 0.4 R around the swept volume, 60 steps per wingbeat, coarse meshes), and
+// the given [aero.cfd.fpm] keys.
+std::string fpm_case_text(const std::string& fpm_keys, const std::string& model = "cfd") {
+  std::string t = testing::replace(testing::valid_case_text(), "model = \"quasi-steady\"", "model = \"" + model + "\"");
+  t = testing::replace(testing::replace(t, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
+                       "sin_deg = [-10.0]");
+  const std::string cfd =
+      "[aero.cfd]\ncells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\n"
+      "above_R = 0\nbelow_R = 0.5\nreynolds = 20\nsteps_per_cycle = 60\nfields_per_cycle = 0\n"
+      "surfaces_per_cycle = 0\ncheckpoints_per_cycle = 6\nbody_divisions = 6\nwing_span_stations = 12\n"
+      "wing_chord_divisions = 4\nthreads = 1\n[aero.cfd.fpm]\n" + fpm_keys + "\n";
+  return testing::replace(t, "[trim]\n", cfd + "[trim]\n");
+}
+
+Case fpm_case(const std::string& name, const std::string& fpm_keys, const std::string& model = "cfd") {
+  return load_case(testing::write_temp(name, fpm_case_text(fpm_keys, model)));
+}
+
+std::string fresh_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("flapstab_fpm_run_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  return d.string();
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(FpmCase, DefaultsAndBadInput) {
+  const Case c = fpm_case("fpm_defaults.toml", "");
+  const FpmSettings& f = c.aero.cfd.fpm;
+  EXPECT_TRUE(f.enabled);
+  EXPECT_EQ(f.samples_per_cycle, 40);
+  EXPECT_EQ(f.components, (std::vector<std::string>{"Fx", "Fz"}));
+  EXPECT_EQ(f.parts, (std::vector<std::string>{"body", "right", "left"}));
+  EXPECT_EQ(f.regions, (std::vector<std::string>{"leading-edge", "trailing-edge", "tip"}));
+  EXPECT_FALSE(load_case(testing::write_temp("fpm_off.toml", testing::replace(fpm_case_text(""), "[aero.cfd.fpm]\n",
+                                                                              "[aero.cfd.fpm]\nenabled = false\n")))
+                   .aero.cfd.fpm.enabled);
+  // without the table: off
+  EXPECT_FALSE(load_case(testing::write_temp("fpm_none.toml", testing::replace(fpm_case_text(""), "[aero.cfd.fpm]\n", "")))
+                   .aero.cfd.fpm.enabled);
+
+  struct Bad {
+    std::string keys, key;
+  };
+  for (const Bad& b : std::vector<Bad>{{"components = [\"Lift\"]", "aero.cfd.fpm.components"},
+                                       {"components = []", "aero.cfd.fpm.components"},
+                                       {"components = [\"Fz\", \"Fz\"]", "aero.cfd.fpm.components"},
+                                       {"components = \"Fz\"", "aero.cfd.fpm.components"},
+                                       {"regions = [\"wake\"]", "aero.cfd.fpm.regions"},
+                                       {"regions = [\"leading edge\"]", "aero.cfd.fpm.regions"},
+                                       {"parts = [\"thorax\"]", "aero.cfd.fpm.parts"},
+                                       {"samples_per_cycle = 0", "aero.cfd.fpm.samples_per_cycle"},
+                                       {"region_size_chords = -1", "aero.cfd.fpm.region_size_chords"},
+                                       {"tolerance = 0.5", "aero.cfd.fpm.tolerance"},
+                                       {"cadence = 4", "aero.cfd.fpm.cadence"}}) {
+    const std::string path = testing::write_temp("fpm_bad.toml", fpm_case_text(b.keys));
+    testing::expect_input_error([&] { load_case(path); }, b.key, path);
+  }
+  // FPM on a case without CFD
+  const std::string qs = testing::write_temp("fpm_qs.toml", fpm_case_text("", "quasi-steady"));
+  const std::string msg = testing::expect_input_error([&] { load_case(qs); }, "aero.cfd.fpm", qs);
+  EXPECT_NE(msg.find("model = \"cfd\""), std::string::npos) << msg;
+}
+
+// The flapping test moth from rest for one wingbeat on the tiny grid, partitioned 12 times per wingbeat (every fifth
+// step): the samples fall on those steps, every row satisfies the partition's identities, fpm.csv reads back as the
+// rows, run.json holds the wingbeat means, and the field files hold the potentials, force densities and regions.
+TEST(FpmRun, PartitionsTheFlappingMothAtItsCadence) {
+  const Case c = fpm_case("fpm_run.toml", "samples_per_cycle = 12\nfields_per_cycle = 2\ncomponents = [\"Fx\", \"Fz\"]\n");
+  ns::CfdRunOptions o;
+  o.directory = fresh_dir("run");
+  const ns::CfdResult res = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  ASSERT_EQ(res.steps, 60);
+  ASSERT_EQ(res.fpm_regions.size(), 7u);  // wake + 3 per wing
+  EXPECT_EQ(res.fpm_regions[0], "wake");
+  EXPECT_EQ(res.fpm_regions[1], "right.leading-edge");
+  ASSERT_EQ(res.fpm_rows.size(), 12u * 3 * 2);
+  double peak = 0;
+  for (const FpmRow& r : res.fpm_rows) peak = std::max(peak, std::abs(r.pressure));
+  ASSERT_GT(peak, 0);
+  for (const FpmRow& r : res.fpm_rows) {
+    EXPECT_EQ(r.step % 5, 0) << r.step;
+    EXPECT_NEAR(r.phase, double(r.step % 60) / 60, 1e-9);
+    double sum = 0;
+    for (double v : r.regions) sum += v;
+    EXPECT_NEAR(sum, r.vortex, 1e-12 * peak) << "regions sum to the vortex-induced part";
+    EXPECT_NEAR(r.added_mass() + r.centripetal, r.kinematic, 1e-15 * peak);
+    for (double v : {r.pressure, r.kinematic, r.vortex, r.viscous, r.outer, r.solver_pressure}) EXPECT_TRUE(std::isfinite(v));
+  }
+  // fpm.csv: the header and the rows as written
+  std::istringstream in(read_text(o.directory + "/fpm.csv"));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, fpm_csv_header(res.fpm_regions));
+  std::size_t n = 0;
+  while (std::getline(in, line)) {
+    ASSERT_LT(n, res.fpm_rows.size());
+    EXPECT_EQ(line, fpm_csv_row(res.fpm_rows[n]));
+    const FpmRow back = parse_fpm_csv_row(line, res.fpm_regions.size());
+    EXPECT_EQ(back.kinematic, res.fpm_rows[n].kinematic);
+    ++n;
+  }
+  EXPECT_EQ(n, res.fpm_rows.size());
+  // run.json: the wingbeat means (the run's only wingbeat: its start-up)
+  const auto j = nlohmann::json::parse(read_text(o.directory + "/run.json"));
+  ASSERT_TRUE(j.contains("fpm"));
+  EXPECT_EQ(j["fpm"]["samples"], 12);
+  double mean = 0;
+  for (const FpmRow& r : res.fpm_rows)
+    if (r.part == 1 && r.component == 2) mean += r.vortex / 12;
+  EXPECT_NEAR(j["fpm"]["parts"]["right"]["Fz"]["vortex"].get<double>(), mean, 1e-12 * peak);
+  EXPECT_TRUE(j["fpm"]["parts"]["right"]["Fz"]["vortex_by_region"].contains("right.leading-edge"));
+  EXPECT_TRUE(j["files"].contains("fpm.csv"));
+  // fields: two outputs, each with the potentials, densities and the region labels
+  const std::string f30 = o.directory + "/fields/fpm_000030.h5";
+  ASSERT_TRUE(fs::exists(f30)) << f30;
+  EXPECT_TRUE(fs::exists(o.directory + "/fields/fpm.xmf"));
+  const ns::StoredField phi = ns::read_field(f30, "potential_right_Fz");
+  EXPECT_EQ(phi.units, "m");
+  const ns::StoredField q = ns::read_field(f30, "vortex_force_density_left_Fx");
+  EXPECT_EQ(q.units, "N/m^3");
+  const ns::StoredField reg = ns::read_field(f30, "fpm_region");
+  int labelled = 0;
+  for (double v : reg.values) labelled += v > 0;
+  EXPECT_GT(labelled, 0) << "cells in the wings' regions";
+}
+
+// An interrupted partitioned run restarted from its checkpoint keeps the samples up to the checkpoint and continues:
+// the same samples as the uninterrupted run (the flow is bit for bit the same; the potentials start from zero instead
+// of the previous sample, so they agree to the solver's tolerance).
+TEST(FpmRun, RestartKeepsTheEarlierSamples) {
+  const Case c = fpm_case("fpm_restart.toml", "samples_per_cycle = 12\ncomponents = [\"Fz\"]\nparts = [\"right\"]\n");
+  ns::CfdRunOptions o;
+  o.directory = fresh_dir("whole");
+  const ns::CfdResult whole = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  ns::CfdRunOptions a = o;
+  a.directory = fresh_dir("pieces");
+  a.stop_after_steps = 25;
+  run_cfd(c, c.kinematics, BodyMotion{}, a);
+  ns::CfdRunOptions b = a;
+  b.stop_after_steps = 0;
+  b.restart = true;
+  const ns::CfdResult second = run_cfd(c, c.kinematics, BodyMotion{}, b);
+  EXPECT_EQ(second.start_step, 20);
+  ASSERT_EQ(second.fpm_rows.size(), whole.fpm_rows.size());
+  double peak = 0;
+  for (const FpmRow& r : whole.fpm_rows) peak = std::max(peak, std::abs(r.pressure));
+  for (std::size_t i = 0; i < whole.fpm_rows.size(); ++i) {
+    const FpmRow &x = whole.fpm_rows[i], &y = second.fpm_rows[i];
+    EXPECT_EQ(x.step, y.step);
+    EXPECT_EQ(x.pressure, y.pressure);  // the flow and the cut cells are the same
+    for (auto [u, v] : {std::pair{x.kinematic, y.kinematic}, {x.vortex, y.vortex}, {x.viscous, y.viscous}})
+      EXPECT_NEAR(u, v, 1e-4 * peak) << "step " << x.step;
+  }
+}
+
+TEST(FpmRun, DryRunEstimatesTheCostAndWritesNothing) {
+  const Case c = fpm_case("fpm_dry.toml", "samples_per_cycle = 12\n");
+  ns::CfdRunOptions o;
+  o.directory = fresh_dir("dry");
+  o.dry_run = true;
+  std::ostringstream log;
+  o.log = &log;
+  run_cfd(c, c.kinematics, BodyMotion{}, o);
+  EXPECT_NE(log.str().find("force partitioning:"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("x the cost of the run without"), std::string::npos) << log.str();
+  EXPECT_FALSE(fs::exists(o.directory + "/fpm.csv"));
+}
+
+}  // namespace
+}  // namespace flapstab::fpm
