@@ -59,6 +59,59 @@ void plot_force_history(const std::string& dir, const ns::CfdResult& r, bool qui
   write_file_atomic(dir + "/forces.svg", *svg);
 }
 
+// fpm.svg: the wings' lift (-F_z, both wings) by mechanism over t/T, / weight: the run's pressure lift, the cut-cell
+// pressure lift the partition sums to, its kinematic part (added mass and centripetal acceleration reaction apart),
+// vortex-induced part (and its leading-edge regions), viscous and outer-boundary parts.
+void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool quiet) {
+  if (r.fpm_rows.empty() || r.result.weight <= 0) return;
+  const double T = r.plan.period, W = r.result.weight;
+  std::vector<std::size_t> le;  // the leading-edge region columns
+  for (std::size_t i = 0; i < r.fpm_regions.size(); ++i)
+    if (r.fpm_regions[i].find("leading-edge") != std::string::npos) le.push_back(i);
+  struct Sum {
+    double t = 0, solver = 0, pressure = 0, added = 0, car = 0, vortex = 0, lev = 0, viscous = 0, outer = 0;
+  };
+  std::vector<Sum> samples;  // wing rows of F_z, summed per sample
+  for (const auto& row : r.fpm_rows) {
+    if (row.part == 0 || row.component != 2) continue;
+    if (samples.empty() || samples.back().t != row.time) samples.push_back(Sum{row.time});
+    Sum& m = samples.back();
+    m.solver -= row.solver_pressure / W, m.pressure -= row.pressure / W, m.added -= row.added_mass() / W;
+    m.car -= row.centripetal / W, m.vortex -= row.vortex / W, m.viscous -= row.viscous / W, m.outer -= row.outer / W;
+    for (std::size_t i : le) m.lev -= row.regions[i] / W;
+  }
+  if (samples.empty()) return;  // F_z not partitioned or no wing
+  std::vector<Series> series = {{"run's pressure lift (forces.csv)", {}, {}},
+                                {"cut-cell pressure lift (= the sum of the parts)", {}, {}},
+                                {"added mass", {}, {}},
+                                {"centripetal acceleration reaction", {}, {}},
+                                {"vortex-induced", {}, {}},
+                                {"vortex-induced, leading-edge regions", {}, {}, "lines dt 2"},
+                                {"viscous", {}, {}},
+                                {"outer boundary", {}, {}}};
+  for (const Sum& m : samples) {
+    const double v[8] = {m.solver, m.pressure, m.added, m.car, m.vortex, m.lev, m.viscous, m.outer};
+    for (int i = 0; i < 8; ++i) {
+      series[std::size_t(i)].x.push_back(m.t / T);
+      series[std::size_t(i)].y.push_back(v[i]);
+    }
+  }
+  if (le.empty()) series.erase(series.begin() + 5);
+  LinePlot p;
+  p.title = "flapstab cfd: force partition of the wings' lift";
+  p.xlabel = "t / T (wingbeats)";
+  p.ylabel = "lift / weight (-F_z / m g, both wings)";
+  p.zero_axes = true;
+  p.series = series;
+  std::string why;
+  const auto svg = render_svg(p, why);
+  if (!svg) {
+    if (!quiet) fmt::print(stderr, "flapstab cfd: no fpm.svg: {}\n", why);
+    return;
+  }
+  write_file_atomic(dir + "/fpm.svg", *svg);
+}
+
 }  // namespace
 
 int run_cfd_command(const CfdCommandOptions& o) {
@@ -75,7 +128,10 @@ int run_cfd_command(const CfdCommandOptions& o) {
     if (!o.quiet) fmt::print("nothing to do: {} is complete ({} steps); no file changed\n", opt.directory, r.steps);
     return 0;
   }
-  if (!o.dry_run) plot_force_history(opt.directory, r, o.quiet);
+  if (!o.dry_run) {
+    plot_force_history(opt.directory, r, o.quiet);
+    plot_partition_history(opt.directory, r, o.quiet);
+  }
   if (!o.quiet) {
     if (o.dry_run)
       fmt::print("dry run: {} cells, {:.1f} MiB, {:.3g} s per step; nothing written\n", r.cells, r.bytes / 1048576.0,
@@ -86,6 +142,7 @@ int run_cfd_command(const CfdCommandOptions& o) {
                  opt.directory, r.steps, r.wall_seconds,
                  r.status == "stopped" ? fmt::format("; stopped after --steps {}: continue with --restart", o.steps)
                                        : std::string());
+      if (!r.fpm_rows.empty()) fmt::print("wrote {0}/fpm.csv, {0}/fpm.svg (force partitioning)\n", opt.directory);
       if (r.result.available) fmt::print("{}", ns::cfd_run_result_text(r.result));
     }
   }

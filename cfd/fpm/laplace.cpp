@@ -138,7 +138,7 @@ void fill_periodic_ghosts(const Grid& g, Field& x) {
 
 struct NeumannLaplacian::Impl {
   std::vector<Level> levels;
-  mutable Field r, rold, z, zold, p, q, rhs;
+  mutable Field r, z, p, q, rhs;
 
   // V-cycle on level l: L.x from zero for the right-hand side L.b.
   void vcycle(std::size_t l) const {
@@ -266,7 +266,7 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     levels.push_back(std::move(C));
   }
   const Shape s = levels[0].s;
-  for (Field* f : {&impl_->r, &impl_->rold, &impl_->z, &impl_->zold, &impl_->p, &impl_->q, &impl_->rhs}) *f = Field(s);
+  for (Field* f : {&impl_->r, &impl_->z, &impl_->p, &impl_->q, &impl_->rhs}) *f = Field(s);
 }
 
 NeumannLaplacian::~NeumannLaplacian() = default;
@@ -284,7 +284,7 @@ bool NeumannLaplacian::active(int i, int j, int k) const {
 std::size_t NeumannLaplacian::bytes() const {
   std::size_t b = 0;
   for (const Level& L : impl_->levels) b += 8 * L.s.size() * sizeof(double);
-  return b + 6 * impl_->levels[0].s.size() * sizeof(double);
+  return b + 5 * impl_->levels[0].s.size() * sizeof(double);  // r, z, p, q, rhs
 }
 
 void NeumannLaplacian::apply(Field& x, Field& Ax) const { impl_->levels[0].apply(x, Ax); }
@@ -334,7 +334,6 @@ LaplaceStats NeumannLaplacian::solve(Field& x, const Field& bin, double rtol, in
     const double pq = dot_active(L, m.p, m.q);
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
-    m.rold = m.r;
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
@@ -350,16 +349,16 @@ LaplaceStats NeumannLaplacian::solve(Field& x, const Field& bin, double rtol, in
       st.converged = true;
       break;
     }
-    m.zold = m.z;
     m.precondition(m.r, m.z);
-    // flexible (Polak-Ribiere) beta: the coarsest level is relaxed to a tolerance, so M varies slightly
+    // flexible (Polak-Ribiere) beta: the coarsest level is relaxed to a tolerance, so M varies slightly;
+    // z . (r - r_old) = -alpha z . q (the residual changed by -alpha q), so no copy of the old residual is kept
     double num = 0;
 #pragma omp parallel for schedule(static) reduction(+ : num) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
         for (int i = 1; i <= s.nx; ++i) {
           const std::ptrdiff_t n = s(i, j, k);
-          if (L.active(n)) num += m.z[n] * (m.r[n] - m.rold[n]);
+          if (L.active(n)) num -= alpha * m.z[n] * m.q[n];
         }
     const double beta = num / rz;
     rz = dot_active(L, m.r, m.z);

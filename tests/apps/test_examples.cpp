@@ -214,6 +214,20 @@ TEST(Examples, CfdCaseDryRun) {
   EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
 }
 
+// The force-partitioning examples (hawkmoth at Re = 1000, fruit fly at Re = 100): a dry run plans the grid, times two
+// steps and one partition (the cost estimate) and writes nothing.
+TEST(Examples, ForcePartitioningDryRuns) {
+  for (const char* name : {"fpm_hawkmoth_cfd.toml", "fpm_fruitfly_cfd.toml"}) {
+    const std::string file = source + "/data/examples/" + name;
+    const fs::path dir = out_dir("fpm_dry");
+    const CliResult r = flapstab("cfd " + file + " --dry-run -o " + dir.string());
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("force partitioning:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("x the cost of the run without"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "fpm.csv"));
+  }
+}
+
 // A table in the wingbeat convention with m+, I+, g+ (docs/derivative-table.md's worked example): the unstable
 // oscillatory mode at lambda T = 0.05453 +- 0.11595i, as the guide prints it (4 figures).
 TEST(Examples, DerivativeTableInTheWingbeatConvention) {
