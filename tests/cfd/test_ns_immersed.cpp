@@ -25,6 +25,7 @@
 #include <stdexcept>
 #include "cfd/navier_stokes/immersed.hpp"
 #include "cfd/navier_stokes/mesh_query.hpp"
+#include "common/sphere_flow.hpp"
 
 namespace {
 
@@ -293,26 +294,15 @@ struct SphereResult {
   double seconds, poisson_iterations;
 };
 
-// D = 1, U = 1, nu = 1/100. Domain [-5, 15] x [-5, 5]^2 D, fine box [-0.8, 1.6] x [-0.8, 0.8]^2 with spacing
-// h, geometric stretching (ratio) outside. Uniform inflow U at x-, zero-gradient outflow at x+, velocity U on
-// the lateral faces. Impulsive start from the uniform flow; C_D averaged over the last 2 D/U before t_end.
+// D = 1, U = 1, nu = 1/100 (tests/common/sphere_flow.hpp: domain, fine box of spacing h, stretching, inflow and
+// outflow). Impulsive start from the uniform flow; C_D averaged over the last 2 D/U before t_end.
 SphereResult run_sphere(double h, double ratio, double t_end, int mesh_n) {
   const auto t0 = std::chrono::steady_clock::now();
   const double D = 1, U = 1;
-  const Grid g(Axis::stretched(StretchedAxis{-5, 15, -0.8, 1.6, h, ratio, 8}, false),
-               Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, h, ratio, 8}, false),
-               Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, h, ratio, 8}, false));
-  Boundaries bc = Boundaries::all(BC::velocity);
-  for (auto& f : bc.face) f.velocity = [U](double) { return Vec3(U, 0, 0); };
-  bc.face[face(0, 1)] = {BC::outflow, {}, {}};
-  SolverOptions opt;
-  opt.nu = U * D / 100;
-  opt.cfl = 1.2;
-  Solver s(g, bc, opt);
-  s.initialise([U](double, double, double) { return Vec3(U, 0, 0); });
-  ImmersedBoundary ib(g);
-  ib.add_part(sphere_mesh(D / 2, mesh_n), fixed_part());
-  ib.attach(s);
+  flapstab::testing::SphereInStream flow(h, ratio, mesh_n);
+  const Grid& g = flow.grid;
+  Solver& s = flow.solver;
+  ImmersedBoundary& ib = flow.ib;
   SphereResult r{};
   const Shape sh = g.shape();
   r.nx = sh.nx, r.ny = sh.ny, r.nz = sh.nz;

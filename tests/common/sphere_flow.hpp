@@ -1,0 +1,42 @@
+// The steady-sphere case of the immersed-boundary validation, shared by its tests (drag, force partitioning):
+// D = 1, U = 1, Re = U D / nu = 100. Domain [-5, 15] x [-5, 5]^2 D, fine box [-0.8, 1.6] x [-0.8, 0.8]^2 with
+// spacing h, geometric stretching (ratio) outside. Uniform inflow U at x-, zero-gradient outflow at x+, velocity U
+// on the lateral faces; impulsive start from the uniform flow. The sphere (cube-sphere mesh of n divisions) is fixed
+// at the origin.
+#pragma once
+#include <memory>
+#include "cfd/navier_stokes/immersed.hpp"
+
+namespace flapstab::testing {
+
+struct SphereInStream {
+  ns::Grid grid;
+  ns::Solver solver;
+  ns::ImmersedBoundary ib;
+
+  SphereInStream(double h, double ratio, int mesh_n)
+      : grid(ns::Axis::stretched(ns::StretchedAxis{-5, 15, -0.8, 1.6, h, ratio, 8}, false),
+             ns::Axis::stretched(ns::StretchedAxis{-5, 5, -0.8, 0.8, h, ratio, 8}, false),
+             ns::Axis::stretched(ns::StretchedAxis{-5, 5, -0.8, 0.8, h, ratio, 8}, false)),
+        solver(grid, boundaries(), options()),
+        ib(grid) {
+    solver.initialise([](double, double, double) { return Vec3(1, 0, 0); });
+    ib.add_part(ns::sphere_mesh(0.5, mesh_n), ns::fixed_part());
+    ib.attach(solver);
+  }
+
+  static ns::Boundaries boundaries() {
+    ns::Boundaries bc = ns::Boundaries::all(ns::BC::velocity);
+    for (auto& f : bc.face) f.velocity = [](double) { return Vec3(1, 0, 0); };
+    bc.face[ns::face(0, 1)] = {ns::BC::outflow, {}, {}};
+    return bc;
+  }
+  static ns::SolverOptions options() {
+    ns::SolverOptions opt;
+    opt.nu = 1.0 / 100;
+    opt.cfl = 1.2;
+    return opt;
+  }
+};
+
+}  // namespace flapstab::testing
