@@ -173,6 +173,77 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
         // a cell whose faces are all on the domain's boundary keeps its centre's status
         G.volume_fraction(i, j, k) = n > 0 ? sum / n : (owners[flat(i, j, k)] < 0 ? 1.0 : 0.0);
       }
+  // Pockets: fluid cells cut off from the domain's faces by the parts (a wing root against the body). A Neumann
+  // problem there has a solution only if the part's fluxes into the pocket cancel, which they need not on a grid, so
+  // the pockets are taken out of the fluid (no potential, no surface pieces: their area is counted in pocket_cells).
+  // Kept: every component of open cells that reaches a non-periodic domain face (the largest one in a fully periodic
+  // box).
+  {
+    const std::size_t cells = std::size_t(s.nx) * s.ny * s.nz;
+    std::vector<int> comp(cells, -1);
+    std::vector<std::size_t> size;
+    std::vector<char> outer;
+    std::vector<std::array<int, 3>> stack;
+    auto idx = [&](int i, int j, int k) { return flat(i, j, k); };
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          if (!G.active(s(i, j, k)) || comp[idx(i, j, k)] >= 0) continue;
+          const int c = int(size.size());
+          size.push_back(0);
+          outer.push_back(0);
+          comp[idx(i, j, k)] = c;
+          stack.push_back({i, j, k});
+          while (!stack.empty()) {
+            const auto I = stack.back();
+            stack.pop_back();
+            ++size[std::size_t(c)];
+            for (int d = 0; d < 3; ++d) {
+              const bool per = g.axis[std::size_t(d)].periodic;
+              if (!per && (I[d] == 1 || I[d] == s.n(d))) outer[std::size_t(c)] = 1;
+              for (int side = 0; side < 2; ++side) {
+                std::array<int, 3> J = I;
+                J[std::size_t(d)] += side == 0 ? -1 : 1;
+                // the face between I and J: the lower face of the upper cell
+                std::array<int, 3> F = side == 0 ? I : J;
+                if (J[std::size_t(d)] < 1 || J[std::size_t(d)] > s.n(d)) {
+                  if (!per) continue;
+                  J[std::size_t(d)] = J[std::size_t(d)] < 1 ? s.n(d) : 1;
+                  F[std::size_t(d)] = side == 0 ? 1 : s.n(d) + 1;
+                }
+                if (G.aperture[std::size_t(d)](F[0], F[1], F[2]) <= 0) continue;
+                if (!G.active(s(J[0], J[1], J[2])) || comp[idx(J[0], J[1], J[2])] >= 0) continue;
+                comp[idx(J[0], J[1], J[2])] = c;
+                stack.push_back(J);
+              }
+            }
+          }
+        }
+    bool any_outer = false;
+    for (char o : outer) any_outer = any_outer || o;
+    if (!any_outer && !size.empty()) {
+      std::size_t largest = 0;
+      for (std::size_t c = 1; c < size.size(); ++c)
+        if (size[c] > size[largest]) largest = c;
+      outer[largest] = 1;
+    }
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const int c = comp[idx(i, j, k)];
+          if (c < 0 || outer[std::size_t(c)]) continue;
+          ++G.pocket_cells;
+          G.volume_fraction(i, j, k) = 0;
+          for (int d = 0; d < 3; ++d) {
+            int U[3] = {i, j, k};
+            ++U[d];
+            G.aperture[std::size_t(d)](i, j, k) = 0;
+            G.aperture[std::size_t(d)](U[0], U[1], U[2]) = 0;
+          }
+        }
+    for (int d = 0; d < 3; ++d)
+      if (g.axis[std::size_t(d)].periodic) copy_periodic_faces(G.aperture[std::size_t(d)], s, d);
+  }
   // the surface pieces: each solid share closes the part's solid in the cells on both sides of the face
   std::unordered_map<std::size_t, std::size_t> index;  // (cell * parts + part) -> cuts
   std::vector<double> weight;

@@ -42,6 +42,7 @@ struct FluidGeometry {
   };
   std::vector<Cut> cuts;
   std::size_t sampled_faces = 0;       // faces the lattice sampled (near a surface)
+  std::size_t pocket_cells = 0;        // fluid cells cut off from the domain's faces by the parts, taken out
   bool active(std::ptrdiff_t n) const { return volume_fraction[n] > 0; }
 };
 

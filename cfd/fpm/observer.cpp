@@ -156,6 +156,8 @@ std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
   for (const auto& rep : reports) {
     ++solves_;
     iterations_ += rep.stats.iterations;
+    unconverged_ += rep.stats.converged ? 0 : 1;
+    pockets_max_ = std::max(pockets_max_, rep.pocket_cells);
   }
   // regions in the wings' frames at this instant
   const Wing& wing = sim.case_file().insect.wing;
@@ -315,7 +317,11 @@ nlohmann::json FpmObserver::means(double from_s, double to_s, double period, dou
     }
   j["samples"] = samples;
   j["parts"] = parts;
-  j["cost"] = {{"seconds", seconds_}, {"samples_this_run", samples_}, {"mean_potential_iterations", mean_potential_iterations()}};
+  j["cost"] = {{"seconds", seconds_},
+               {"samples_this_run", samples_},
+               {"mean_potential_iterations", mean_potential_iterations()},
+               {"unconverged_solves", unconverged_},
+               {"pocket_cells_max", pockets_max_}};
   return j;
 }
 
@@ -344,6 +350,9 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
       "force = {:.1f} % of the total\n",
       from_s, to_s, L, lift(m.sp), lift(m.sv), pc(m.kinematic), pc(m.kinematic - m.centripetal), pc(m.centripetal),
       pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(m.kinematic + m.vortex + m.viscous + m.outer - m.pressure));
+  if (unconverged_ > 0)
+    s += fmt::format("    warning: {} potential solves did not converge (tolerance {:g}); their samples are unreliable\n",
+                     unconverged_, settings_.tolerance);
   if (!m.regions.empty()) {
     s += "    vortex-induced lift by region:";
     for (std::size_t r = 0; r < m.regions.size() && r < region_names_.size(); ++r)

@@ -71,6 +71,7 @@ class FpmObserver final : public ns::StepObserver {
   double seconds() const { return seconds_; }  // wall time spent partitioning in this run
   long samples() const { return samples_; }
   double mean_potential_iterations() const { return samples_ > 0 ? double(iterations_) / solves_ : 0; }
+  long unconverged_solves() const { return unconverged_; }  // potential solves that failed even from zero
 
   // Wingbeat means of every part and component over the samples with from_s < t <= to_s (run.json "fpm").
   nlohmann::json means(double from_s, double to_s, double period, double weight) const;
@@ -89,7 +90,8 @@ class FpmObserver final : public ns::StepObserver {
   std::optional<ns::FieldWriter> writer_;
   std::vector<FpmRow> rows_;
   std::vector<std::string> lines_;
-  long samples_ = 0, solves_ = 0, iterations_ = 0;
+  long samples_ = 0, solves_ = 0, iterations_ = 0, unconverged_ = 0;
+  std::size_t pockets_max_ = 0;
   double seconds_ = 0;
   long last_sample_step_ = -1;
 };

