@@ -1,0 +1,70 @@
+// Benchmark of force partitioning in a CFD run: the hawkmoth of data/examples/fpm_hawkmoth_cfd.toml (Re 1000, 8 cells
+// per mean chord, 491 520 cells, 400 steps per wingbeat) stepped 80 steps from the same state (after 20 steps from
+// rest), without and with the FPM observer at 40 samples per wingbeat (8 samples, the first from zero potentials),
+// default settings (F_x, F_z of body and both wings: 6 potentials per sample). The target: the run with FPM
+// at most 1.5 x the run without. Reported: ms per 80 steps of each; the ratio is printed by the second benchmark
+// as the counter cost_ratio (against the first's time in the same process).
+// Run: cmake -S . -B build -DFLAPSTAB_BUILD_BENCH=ON && cmake --build build --target bench_fpm &&
+//      OMP_NUM_THREADS=1 ./build/bench/bench_fpm
+#include <benchmark/benchmark.h>
+#include <chrono>
+#include <memory>
+#include <optional>
+#include "cfd/fpm/observer.hpp"
+#include "cfd/navier_stokes/plan.hpp"
+#include "cfd/navier_stokes/simulation.hpp"
+#include "core/case_file.hpp"
+
+namespace {
+
+using namespace flapstab;
+
+struct Moth {
+  Case c;
+  ns::CfdPlan plan;
+  std::unique_ptr<ns::Simulation> sim;
+  ns::SimulationState start;
+};
+
+Moth& moth() {
+  static Moth m = [] {
+    Moth x;
+    x.c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/examples/fpm_hawkmoth_cfd.toml");
+    x.plan = ns::plan_cfd(x.c, x.c.kinematics, BodyMotion{});
+    x.sim = std::make_unique<ns::Simulation>(x.c, x.c.kinematics, BodyMotion{}, x.plan);
+    for (int n = 0; n < 20; ++n) x.sim->advance();
+    x.start = x.sim->state();
+    return x;
+  }();
+  return m;
+}
+
+double without_ms = 0;
+
+void BM_HawkmothSteps(benchmark::State& state) {
+  const bool with_fpm = state.range(0) == 1;
+  Moth& m = moth();
+  double total = 0;
+  long n = 0;
+  for (auto _ : state) {
+    m.sim->restore(m.start);
+    std::optional<fpm::FpmObserver> ob;
+    if (with_fpm) ob.emplace(*m.sim, m.c.aero.cfd.fpm, std::string());
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < 80; ++k) {
+      const ns::StepReport r = m.sim->advance();
+      if (ob) ob->on_step(*m.sim, r);
+    }
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    state.SetIterationTime(s);
+    total += s, ++n;
+    if (ob) state.counters["samples"] = double(ob->samples());
+    if (ob) state.counters["potential_iterations"] = ob->mean_potential_iterations();
+  }
+  const double ms = 1e3 * total / double(n);
+  if (!with_fpm) without_ms = ms;
+  else if (without_ms > 0) state.counters["cost_ratio"] = ms / without_ms;
+}
+BENCHMARK(BM_HawkmothSteps)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(3);
+
+}  // namespace
