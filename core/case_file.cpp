@@ -333,6 +333,41 @@ AngleSeries parse_angle(Section s, const std::string& name, double default_mean_
   return out;
 }
 
+// [abdomen]: the second body segment (core/insect.hpp Abdomen). The inertia is given about the joint, in the
+// abdomen frame (A at zero relative pitch), and held about the abdomen's CoM.
+Abdomen parse_abdomen(Section s) {
+  Abdomen a;
+  a.mass = s.positive("mass_kg", "kg");
+  auto point = [&s](const char* key, const std::string& expected) {
+    const auto v = s.numbers(key, expected, true);
+    if (v.size() != 3) s.fail(key, fmt::format("has {} components", v.size()), expected);
+    if (v[1] != 0) s.fail(key, fmt::format("y = {:.6g} is off the plane of symmetry", v[1]), expected);
+    return Vec3(v[0], v[1], v[2]);
+  };
+  a.joint = point("joint_m", "[x, 0, z] of the thorax-abdomen joint in body axes A, from the thorax CoM (m)");
+  a.centre = point("mass_centre_m", "[x, 0, z] of the abdomen CoM from the joint, abdomen axes (m)");
+  if (!s.has("inertia_joint_kg_m2"))
+    s.fail("inertia_joint_kg_m2", "missing", "{ xx, yy, zz, xz } about the joint, abdomen axes (kg m^2)");
+  Section in = s.sub("inertia_joint_kg_m2", true);
+  const double xx = in.positive("xx", "kg m^2"), yy = in.positive("yy", "kg m^2"), zz = in.positive("zz", "kg m^2"),
+               xz = in.number_or("xz", 0.0, "a number in kg m^2");
+  in.reject_unknown();
+  Mat3 ij;
+  ij << xx, 0, -xz, 0, yy, 0, -xz, 0, zz;  // product of inertia Ixz = int x z dm
+  const Vec3& c = a.centre;
+  a.inertia_cg = ij - a.mass * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+  const double lowest = Eigen::SelfAdjointEigenSolver<Mat3>(a.inertia_cg).eigenvalues().minCoeff();
+  if (lowest < -1e-12 * ij.norm())
+    s.fail("inertia_joint_kg_m2",
+           fmt::format("inconsistent with the abdomen mass and mass centre (a principal inertia about its CoM of {:.4g} "
+                       "kg m^2)", lowest),
+           "an inertia about the joint at least m |r_cg|^2 about each axis");
+  a.pitch = parse_angle(s.sub("pitch", false), "pitch", 0.0);
+  if (a.pitch.revolving()) s.fail("pitch", "has a secular rate", "a periodic relative pitch");
+  s.reject_unknown();
+  return a;
+}
+
 WingAngles parse_wing_angles(Section& s, const std::string& dir, const WingAngles* fallback) {
   if (s.has("file")) {
     const std::string f = s.string("file", true);
@@ -578,6 +613,7 @@ Case load_case(const std::string& path) {
   c.insect.body = parse_body(top.sub("body", true));
   c.insect.wing = parse_wing(top.sub("wing", true));
   if (top.has("hind_wing")) c.insect.hind_wing = parse_wing(top.sub("hind_wing", true));
+  if (top.has("abdomen")) c.insect.abdomen = parse_abdomen(top.sub("abdomen", true));
   c.kinematics = parse_kinematics(top.sub("kinematics", true), dir);
   // A hind pair needs both its wing ([hind_wing]: planform, hinge, mass) and its kinematics ([kinematics.hind]).
   if (c.insect.hind_wing && !c.kinematics.has_hind)
@@ -615,6 +651,9 @@ Case load_case(const std::string& path) {
   if (c.insect.hind_wing && c.aero.model == "cfd")
     throw InputError(path, "aero.model", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
                      "model = \"quasi-steady\" for a hind pair");
+  if (c.insect.abdomen && c.aero.model == "cfd")
+    throw InputError(path, "aero.model", "an insect with an [abdomen] is not in the CFD geometry (one rigid body)",
+                     "model = \"quasi-steady\" for an abdomen");
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});

@@ -317,3 +317,65 @@ TEST(CaseFile, StrokePlaneReference) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// Each (from, to, key): the edited text must fail to load with an InputError naming the file and the key, and say
+// what was expected.
+void expect_bad_edits(const std::string& base, const std::vector<std::array<std::string, 3>>& edits,
+                      const std::string& label) {
+  int i = 0;
+  for (const auto& [from, to, key] : edits) {
+    const std::string path =
+        testing::write_temp(label + std::to_string(i++) + ".toml", testing::replace(base, from, to));
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
+// The valid case with an abdomen oscillating about a bent mean.
+std::string abdomen_case_text() {
+  return testing::replace(testing::valid_case_text(), "[kinematics]\n",
+                          "[abdomen]\nmass_kg = 0.8e-3\njoint_m = [-0.006, 0.0, 0.001]\n"
+                          "mass_centre_m = [-0.012, 0.0, 0.002]\n"
+                          "inertia_joint_kg_m2 = { xx = 1.2e-8, yy = 1.6e-7, zz = 1.55e-7, xz = -1.7e-8 }\n"
+                          "[abdomen.pitch]\nmean_deg = -10.0\ncos_deg = [15.0]\nsin_deg = [5.0]\n\n[kinematics]\n");
+}
+
+TEST(CaseFile, AbdomenLoads) {
+  const Case c = load_case(testing::write_temp("abdomen.toml", abdomen_case_text()));
+  ASSERT_TRUE(c.insect.abdomen.has_value());
+  const Abdomen& a = *c.insect.abdomen;
+  EXPECT_NEAR(c.insect.total_mass(), 1.554e-3 + 2 * 47e-6 + 0.8e-3, 1e-15);
+  EXPECT_EQ(a.joint, Vec3(-0.006, 0.0, 0.001));
+  // The inertia about the joint is held about the CoM: Iyy_cg = Iyy_joint - m |c|^2, Ixz by the parallel-axis term.
+  EXPECT_NEAR(a.inertia_cg(1, 1), 1.6e-7 - 0.8e-3 * (0.012 * 0.012 + 0.002 * 0.002), 1e-22);
+  EXPECT_NEAR(a.inertia_cg(0, 2), 1.7e-8 + 0.8e-3 * (-0.012) * 0.002, 1e-22);
+  EXPECT_NEAR(a.pitch.eval(0).f / deg, 5.0, 1e-12);
+  // Without [abdomen.pitch] the abdomen is rigid, straight.
+  const Case r = load_case(testing::write_temp(
+      "abdomen_rigid.toml", testing::replace(abdomen_case_text(), "[abdomen.pitch]\nmean_deg = -10.0\ncos_deg = [15.0]\nsin_deg = [5.0]\n", "")));
+  EXPECT_EQ(r.insect.abdomen->pitch.eval(0.3).f, 0.0);
+}
+
+TEST(CaseFile, AbdomenBadInputNamesFileAndKey) {
+  expect_bad_edits(abdomen_case_text(),
+                   {{"joint_m = [-0.006, 0.0, 0.001]\n", "", "abdomen.joint_m"},
+                    {"joint_m = [-0.006, 0.0, 0.001]", "joint_m = [-0.006, 0.001]", "abdomen.joint_m"},
+                    {"joint_m = [-0.006, 0.0, 0.001]", "joint_m = [-0.006, 0.002, 0.001]", "abdomen.joint_m"},
+                    {"mass_centre_m = [-0.012, 0.0, 0.002]\n", "", "abdomen.mass_centre_m"},
+                    {"mass_kg = 0.8e-3", "mass_kg = -0.8e-3", "abdomen.mass_kg"},
+                    {"mass_kg = 0.8e-3\n", "", "abdomen.mass_kg"},
+                    {"yy = 1.6e-7", "yy = -1.6e-7", "abdomen.inertia_joint_kg_m2.yy"},
+                    {"yy = 1.6e-7", "yy = 1.0e-7", "abdomen.inertia_joint_kg_m2"},  // below m |c|^2
+                    {"inertia_joint_kg_m2 = { xx = 1.2e-8, yy = 1.6e-7, zz = 1.55e-7, xz = -1.7e-8 }\n", "",
+                     "abdomen.inertia_joint_kg_m2"},
+                    {"cos_deg = [15.0]", "cos_deg = [15.0]\nrate = 1.0", "abdomen.pitch.rate"},
+                    {"[abdomen]\n", "[abdomen]\nlength_m = 0.02\n", "abdomen.length_m"},
+                    {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"}},
+                   "abdomen_bad");
+}
+
+}  // namespace
+}  // namespace flapstab

@@ -158,3 +158,95 @@ TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
 
 }  // namespace
 }  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// An abdomen of about half the body mass, hinged aft of the thorax, with its CoM below its long axis and a product
+// of inertia: every term of a part turning about the joint.
+Abdomen test_abdomen() {
+  Abdomen a;
+  a.mass = 0.8e-3;
+  a.joint = Vec3(-0.006, 0, 0.001);
+  a.centre = Vec3(-0.012, 0, 0.002);
+  Mat3 ij;
+  ij << 1.2e-8, 0, 1.7e-8, 0, 1.6e-7, 0, 1.7e-8, 0, 1.55e-7;  // about the joint (Ixz = -1.7e-8)
+  a.inertia_cg = ij - a.mass * (a.centre.squaredNorm() * Mat3::Identity() - a.centre * a.centre.transpose());
+  return a;
+}
+
+// Abdomen: a second body segment whose relative pitch (two harmonics about a bent mean) is prescribed. Without loads
+// the total momentum of thorax + abdomen + wings is conserved (RK4 at 4000 steps per cycle, 1e-9 of the wing
+// momentum scale, as for the wings alone); the abdomen's own momentum scale is of the same order.
+TEST(Eom, AbdomenConservesMomentumWithoutExternalLoads) {
+  Insect ins = testing::test_insect();
+  ins.abdomen = test_abdomen();
+  ins.abdomen->pitch = FourierSeries{-10 * deg, {15 * deg, 3 * deg}, {5 * deg, -2 * deg}};
+  Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  k.left = testing::harmonic_wing(100, 30, 10, 5);
+  const Configuration cfg(ins, k);
+  EXPECT_NEAR(cfg.mass_state(0.01).total_mass(), ins.total_mass(), 1e-18);
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  Vec3 P0, H0, P1, H1;
+  system_momenta(cfg, 0.0, x, P0, H0);
+  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
+  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const double p_scale = ins.wing.mass * 2 * pi * 26 * ins.wing.length;
+  std::printf("    abdomen: |dP| = %.3g of the wing momentum scale, |dH| = %.3g\n", (P1 - P0).norm() / p_scale,
+              (H1 - H0).norm() / (p_scale * ins.wing.length));
+  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
+  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  // The abdomen's motion matters: the same run with a rigid abdomen ends elsewhere.
+  Insect rigid = ins;
+  rigid.abdomen->pitch = FourierSeries{-10 * deg, {}, {}};
+  const Configuration cfg_rigid(rigid, k);
+  const BodyStateVector x1_rigid = rk4(cfg_rigid, x, 0.0, 2 * k.period(), 8000, 0.0);
+  EXPECT_GT((x1_rigid - x1).norm(), 1e-3 * x1.norm());
+}
+
+// A rigid abdomen (constant relative pitch, bent by 12 deg) is one body with the combined mass properties: mass
+// m_t + m_a, CoM d = m_a p / m (p the abdomen CoM in A), inertia by the parallel-axis theorem, the hinges moved by
+// -d. The reference point, the mass state's aggregates and the equations of motion agree to round-off (1e-12).
+TEST(Eom, RigidAbdomenEqualsCombinedBody) {
+  Insect two = testing::test_insect();
+  two.abdomen = test_abdomen();
+  two.abdomen->pitch = FourierSeries{12 * deg, {}, {}};
+  const Abdomen& a = *two.abdomen;
+  const Mat3 R = rot_y(a.pitch.eval(0).f);
+  const Vec3 p = a.joint + R * a.centre;
+  Insect one = two;
+  one.abdomen.reset();
+  one.body.mass = two.body.mass + a.mass;
+  const Vec3 d = a.mass * p / one.body.mass;
+  auto shift = [](double m, const Vec3& r) { return m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose()); };
+  one.body.inertia = two.body.inertia + shift(two.body.mass, d) + R * a.inertia_cg * R.transpose() + shift(a.mass, p - d);
+  one.wing.hinge -= d;
+  const Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  const Configuration c2(two, k), c1(one, k);
+  // O in S from each body's CoM: they differ by d (in S axes).
+  EXPECT_LT((c2.reference_point() - c1.reference_point() - c1.anatomical_to_stability() * d).norm(), 1e-15);
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  Wrench w;
+  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
+  w.moment = Vec3(1e-5, -3e-5, 2e-6);
+  double worst = 0;
+  for (double t : {0.0, 0.011, 0.027}) {
+    const BodyStateVector d2 = body_state_derivative(c2, t, x, w), d1 = body_state_derivative(c1, t, x, w);
+    worst = std::max(worst, (d2 - d1).norm() / d1.norm());
+    Eigen::Matrix<double, 6, 6> aj = Eigen::Matrix<double, 6, 6>::Identity() * 1e-3;
+    const auto j2 = body_state_jacobian(c2, t, x, aj), j1 = body_state_jacobian(c1, t, x, aj);
+    worst = std::max(worst, (j2 - j1).norm() / j1.norm());
+  }
+  std::printf("    rigid abdomen vs combined body: largest relative difference %.3g\n", worst);
+  EXPECT_LT(worst, 1e-12);
+}
+
+}  // namespace
+}  // namespace flapstab
