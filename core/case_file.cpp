@@ -1,6 +1,7 @@
 // Case-file parsing and validation (toml++). Every key is checked; unknown keys are errors.
 #include "core/case_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
@@ -363,7 +364,6 @@ Abdomen parse_abdomen(Section s) {
                        "kg m^2)", lowest),
            "an inertia about the joint at least m |r_cg|^2 about each axis");
   a.pitch = parse_angle(s.sub("pitch", false), "pitch", 0.0);
-  if (a.pitch.revolving()) s.fail("pitch", "has a secular rate", "a periodic relative pitch");
   s.reject_unknown();
   return a;
 }
@@ -786,6 +786,34 @@ Case load_case(const std::string& path) {
   k.map_check_wingbeats = cm.positive_or("check_wingbeats", k.map_check_wingbeats, "wingbeats");
   cm.reject_unknown();
   ctl.reject_unknown();
+
+  // [body_motion]: prescribed attitude and the translation-only model (docs/case-file.md).
+  Section bm = top.sub("body_motion", false);
+  if (bm.present()) {
+    auto& b = c.body_motion;
+    b.present = true;
+    b.model = bm.string("model", true, {}, {"translation-only"});
+    for (const auto& [key, series] : {std::pair{"roll", &b.roll}, std::pair{"pitch", &b.pitch}, std::pair{"yaw", &b.yaw}})
+      *series = parse_angle(bm.sub(key, false), "pitch", 0.0);
+    const std::string expected = "names of the case's [[trim.parameter]] entries, at least one, each once";
+    const toml::node* tp = bm.node("trim_parameters");
+    if (!tp || !tp->is_array() || tp->as_array()->empty())
+      bm.fail("trim_parameters", tp ? "is not a non-empty array" : "missing", expected);
+    for (const auto& e : *tp->as_array()) {
+      if (!e.is_string()) bm.fail("trim_parameters", "holds a non-string entry", expected);
+      const std::string name = e.as_string()->get();
+      if (std::none_of(c.trim.parameters.begin(), c.trim.parameters.end(),
+                       [&](const TrimParameterSpec& p) { return p.name == name && p.side == ParameterSide::both; }))
+        bm.fail("trim_parameters", "\"" + name + "\" is not a [[trim.parameter]] acting on both wings", expected);
+      if (std::count(b.trim_parameters.begin(), b.trim_parameters.end(), name))
+        bm.fail("trim_parameters", "\"" + name + "\" given twice", expected);
+      b.trim_parameters.push_back(name);
+    }
+    bm.reject_unknown();
+    if (c.aero.model == "cfd")
+      throw InputError(path, "aero.model", "the translation-only model ([body_motion]) needs instantaneous loads",
+                       "model = \"quasi-steady\" with [body_motion]");
+  }
 
   Section out = top.sub("output", false);
   c.output_directory = out.string("directory", false, "out");

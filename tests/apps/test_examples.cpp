@@ -65,6 +65,14 @@ nlohmann::json trim(const std::string& path) {
   return fs::exists(dir / "trim.json") ? json_of(dir / "trim.json") : nlohmann::json{};
 }
 
+// The text of a file of the source tree (path relative to it) with each (from, to) edit made once; the test fails
+// when a `from` is missing.
+std::string edited(const std::string& path, const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = slurp(source + "/" + path);
+  for (const auto& [from, to] : edits) text = testing::replace(text, from, to);
+  return text;
+}
+
 TEST(Examples, RevolvingFlyer) {
   const nlohmann::json j = analyze("revolving_hawkmoth.toml");
   ASSERT_FALSE(j.is_null());
@@ -97,10 +105,7 @@ TEST(Examples, MarsGravityTrimsAtTheScaledFrequency) {
   // without [environment] (standard gravity) must trim at sqrt(9.80665 / 3.71) times the frequency, with the same
   // means (analytic similarity; 1e-8 relative, the trim tolerance).
   const nlohmann::json mars = analyze("mars_gravity_hawkmoth.toml");
-  std::string text = slurp(source + "/data/examples/mars_gravity_hawkmoth.toml");
-  const std::string env = "[environment]\ngravity_m_s2 = 3.71";
-  ASSERT_NE(text.find(env), std::string::npos);
-  text.replace(text.find(env), env.size(), "");
+  const std::string text = edited("data/examples/mars_gravity_hawkmoth.toml", {{"[environment]\ngravity_m_s2 = 3.71", ""}});
   const nlohmann::json earth = trim(testing::write_temp("earth_gravity_hawkmoth.toml", text));
   ASSERT_FALSE(mars.is_null() || earth.is_null());
   const auto& pm = mars["trim"]["parameters"];
@@ -128,10 +133,8 @@ TEST(Examples, CoefficientTableTrimsLikeTheSetItSamples) {
   // (10 deg)^4 x 16 x 1.678 / 27 = 9e-4, a relative lift error of 5e-4 at most, which moves the trimmed amplitude
   // (Phi ~ C_L^(-1/2)) by at most 120 deg x 2.7e-4 = 0.03 deg: 0.05 deg stated for every parameter.
   const nlohmann::json t = analyze("coefficient_table_hawkmoth.toml");
-  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
-  const std::string set = "coefficients = \"robofly\"";
-  ASSERT_NE(text.find(set), std::string::npos);
-  text.replace(text.find(set), set.size(), "coefficients = \"berman-wang\"");
+  const std::string text =
+      edited("data/insects/hawkmoth.toml", {{"coefficients = \"robofly\"", "coefficients = \"berman-wang\""}});
   const nlohmann::json b = trim(testing::write_temp("hawkmoth_berman_wang_set.toml", text));
   ASSERT_FALSE(t.is_null() || b.is_null());
   for (std::size_t i = 0; i < 3; ++i)
@@ -152,12 +155,9 @@ TEST(Examples, FourWingsOfTwoIdenticalPairsTrimAtOneOverSqrtTwo) {
   // loads, which scale as n^2 at fixed angles - the trimmed frequency is the two-winged hawkmoth's / sqrt(2), with
   // the same means (analytic similarity; 1e-8 relative, the trim tolerance).
   const nlohmann::json four = analyze("four_wing_hawkmoth.toml");
-  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
-  const std::string amp = "name = \"stroke_amplitude_deg\"";
-  ASSERT_NE(text.find(amp), std::string::npos);
-  text.replace(text.find(amp), amp.size(), "name = \"frequency_hz\"");
-  text.replace(text.find("lower = 90.0"), 12, "lower = 5.0");
-  text.replace(text.find("upper = 150.0"), 13, "upper = 40.0");
+  const std::string text = edited("data/insects/hawkmoth.toml", {{"name = \"stroke_amplitude_deg\"", "name = \"frequency_hz\""},
+                                                               {"lower = 90.0", "lower = 5.0"},
+                                                               {"upper = 150.0", "upper = 40.0"}});
   const nlohmann::json two = trim(testing::write_temp("two_wing_frequency_hawkmoth.toml", text));
   ASSERT_FALSE(four.is_null() || two.is_null());
   const auto& p4 = four["trim"]["parameters"];
@@ -179,13 +179,6 @@ TEST(Examples, BodyFixedStrokePlaneGivesTheSameWingbeat) {
   for (std::size_t i = 0; i < 3; ++i)
     EXPECT_NEAR(double(b["trim"]["parameters"][i]["value"]), double(h["trim"]["parameters"][i]["value"]), 1e-8)
         << h["trim"]["parameters"][i]["name"];
-}
-
-// The example's text with each (from, to) edit made once; the test fails when a `from` is missing.
-std::string edited_example(const std::string& example, const std::vector<std::pair<std::string, std::string>>& edits) {
-  std::string text = slurp(source + "/data/examples/" + example);
-  for (const auto& [from, to] : edits) text = testing::replace(text, from, to);
-  return text;
 }
 
 // Largest |a - b| over two JSON arrays or objects of numbers (nested), relative to max(1, |b|).
@@ -210,7 +203,7 @@ TEST(Examples, RigidAbdomenEqualsTheCombinedBody) {
   ASSERT_FALSE(osc.is_null());
   EXPECT_TRUE(osc["trim"]["converged"].get<bool>());
   EXPECT_TRUE(osc["floquet"]["cyclic_trim"]["converged"].get<bool>());
-  const std::string rigid = edited_example("abdomen_hawkmoth.toml", {{"mean_deg = 0.0\ncos_deg = [5.0]", "mean_deg = 8.0"}});
+  const std::string rigid = edited("data/examples/abdomen_hawkmoth.toml", {{"mean_deg = 0.0\ncos_deg = [5.0]", "mean_deg = 8.0"}});
   const std::string rigid_path = testing::write_temp("rigid_abdomen_hawkmoth.toml", rigid);
   const Case c = load_case(rigid_path);
   const Abdomen& a = *c.insect.abdomen;
@@ -250,13 +243,41 @@ TEST(Examples, RigidAbdomenEqualsTheCombinedBody) {
   EXPECT_GT(largest_difference(osc["floquet"]["exponents_nd"], jr["floquet"]["exponents_nd"]), 1e-6);
 }
 
+// `flapstab COMMAND CASE -q -o DIR` refuses the case: exit 2, a message naming `key`, no DIR.
+void expect_refused(const std::string& command, const std::string& case_path, const std::string& key) {
+  const fs::path dir = out_dir(command + "_" + fs::path(case_path).stem().string() + "_refused");
+  const CliResult r = flapstab(command + " " + case_path + " -q -o " + dir.string());
+  EXPECT_EQ(r.status, 2) << command << ": " << r.err;
+  EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir)) << command;
+}
+
 TEST(Examples, CfdRefusesTheAbdomen) {
-  // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything (exit 2).
-  const fs::path dir = out_dir("abdomen_cfd");
-  const CliResult r = flapstab("cfd " + source + "/data/examples/abdomen_hawkmoth.toml -q -o " + dir.string());
-  EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find("abdomen"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir));
+  // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything.
+  expect_refused("cfd", source + "/data/examples/abdomen_hawkmoth.toml", "abdomen");
+}
+
+TEST(Examples, TranslationOnlyModelTrimsAndHasThreeExponents) {
+  // flapstab floquet on [body_motion]: the translation-only cyclic trim converges through its two parameters and the
+  // Floquet analysis is of [u, v, w].
+  const std::string example = source + "/data/examples/translation_only_hawkmoth.toml";
+  const fs::path dir = out_dir("translation_only");
+  const CliResult r = flapstab("floquet " + example + " -q -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = json_of(dir / "floquet.json");
+  EXPECT_EQ(j["model"], "translation-only");
+  EXPECT_TRUE(j["cyclic_trim"]["converged"].get<bool>());
+  EXPECT_LT(double(j["cyclic_trim"]["residual"]), 1e-10);
+  EXPECT_EQ(j["cyclic_trim"]["parameters"].size(), 2u);
+  EXPECT_EQ(j["state_order"], nlohmann::json({"u", "v", "w"}));
+  EXPECT_EQ(j["exponents_nd"].size(), 3u);
+  // The other commands refuse the case; so does the CFD model.
+  for (const char* command : {"analyze", "trim-hover", "derivatives", "fly", "cfd"})
+    expect_refused(command, example, "body_motion");
+  expect_refused("floquet", testing::write_temp("translation_only_cfd.toml",
+                                                edited("data/examples/translation_only_hawkmoth.toml",
+                                                       {{"model = \"quasi-steady\"", "model = \"cfd\""}})),
+                 "aero.model");
 }
 
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
