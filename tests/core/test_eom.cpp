@@ -22,6 +22,34 @@ BodyStateVector rk4(const Configuration& cfg, BodyStateVector x, double t0, doub
   return x;
 }
 
+// The start of the tests below: translating, spinning and tilted, so that every inertial term acts.
+BodyStateVector moving_state() {
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  return x;
+}
+
+// Two wingbeats from moving_state() without gravity or loads (RK4, 4000 steps per cycle): the change of the system's
+// linear and angular momentum (inertial axes) and the end state.
+struct MomentumChange {
+  Vec3 dP, dH;
+  BodyStateVector x0, x1;
+};
+MomentumChange momentum_change(const Configuration& cfg) {
+  MomentumChange m;
+  const double T = cfg.kinematics().period();
+  m.x0 = moving_state();
+  Vec3 P0, H0, P1, H1;
+  system_momenta(cfg, 0.0, m.x0, P0, H0);
+  m.x1 = rk4(cfg, m.x0, 0.0, 2 * T, 8000, 0.0);
+  system_momenta(cfg, 2 * T, m.x1, P1, H1);
+  m.dP = P1 - P0;
+  m.dH = H1 - H0;
+  return m;
+}
+
 // Without gravity and aerodynamics, the wings' flapping moves the body but the total linear and
 // angular momentum stay constant (Newton's laws for the closed system). Asymmetric kinematics and a
 // tilted, spinning initial state exercise every inertial term. RK4 error at 4000 steps/cycle ~1e-12.
@@ -30,20 +58,12 @@ TEST(Eom, FlappingConservesMomentumWithoutExternalLoads) {
   ins.wing.mass *= 3;  // heavier wings: larger inertial coupling
   Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
   k.left = testing::harmonic_wing(100, 30, 10, 5);
-  const Configuration cfg(ins, k);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
-  Vec3 P0, H0, P1, H1;
-  system_momenta(cfg, 0.0, x, P0, H0);
-  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
-  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const MomentumChange m = momentum_change(Configuration(ins, k));
   const double p_scale = ins.wing.mass * 2 * pi * 26 * ins.wing.length;  // wing momentum scale
-  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
-  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
   // The body did move (the test is not vacuous).
-  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
 }
 
 TEST(Eom, FreeFallAcceleratesAtG) {
@@ -115,18 +135,11 @@ TEST(Eom, FourWingsConserveMomentumWithoutExternalLoads) {
   k.hind_left = testing::harmonic_wing(90, 40, -5, 3);
   k.hind_phase = 0.3;
   const Configuration cfg(ins, k);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
-  Vec3 P0, H0, P1, H1;
-  system_momenta(cfg, 0.0, x, P0, H0);
-  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
-  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const MomentumChange m = momentum_change(cfg);
   const double p_scale = hind.mass * 2 * pi * 26 * ins.wing.length;
-  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
-  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
-  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
   EXPECT_NEAR(cfg.mass_state(0.1).total_mass(), ins.total_mass(), 1e-18);
 }
 
@@ -143,10 +156,7 @@ TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
   k4.hind_left = k4.left;
   const Configuration c4(four, k4), c2(two, k2);
   EXPECT_LT((c4.reference_point() - c2.reference_point()).norm(), 1e-15);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  const BodyStateVector x = moving_state();
   Wrench w;
   w.force = Vec3(1e-3, 2e-4, -1.5e-2);
   w.moment = Vec3(1e-5, -3e-5, 2e-6);
@@ -186,26 +196,17 @@ TEST(Eom, AbdomenConservesMomentumWithoutExternalLoads) {
   k.left = testing::harmonic_wing(100, 30, 10, 5);
   const Configuration cfg(ins, k);
   EXPECT_NEAR(cfg.mass_state(0.01).total_mass(), ins.total_mass(), 1e-18);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
-  Vec3 P0, H0, P1, H1;
-  system_momenta(cfg, 0.0, x, P0, H0);
-  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
-  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const MomentumChange m = momentum_change(cfg);
   const double p_scale = ins.wing.mass * 2 * pi * 26 * ins.wing.length;
-  std::printf("    abdomen: |dP| = %.3g of the wing momentum scale, |dH| = %.3g\n", (P1 - P0).norm() / p_scale,
-              (H1 - H0).norm() / (p_scale * ins.wing.length));
-  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
-  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
-  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  std::printf("    abdomen: |dP| = %.3g of the wing momentum scale, |dH| = %.3g\n", m.dP.norm() / p_scale,
+              m.dH.norm() / (p_scale * ins.wing.length));
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
   // The abdomen's motion matters: the same run with a rigid abdomen ends elsewhere.
   Insect rigid = ins;
   rigid.abdomen->pitch = FourierSeries{-10 * deg, {}, {}};
-  const Configuration cfg_rigid(rigid, k);
-  const BodyStateVector x1_rigid = rk4(cfg_rigid, x, 0.0, 2 * k.period(), 8000, 0.0);
-  EXPECT_GT((x1_rigid - x1).norm(), 1e-3 * x1.norm());
+  EXPECT_GT((momentum_change(Configuration(rigid, k)).x1 - m.x1).norm(), 1e-3 * m.x1.norm());
 }
 
 // A rigid abdomen (constant relative pitch, bent by 12 deg) is one body with the combined mass properties: mass
@@ -229,10 +230,7 @@ TEST(Eom, RigidAbdomenEqualsCombinedBody) {
   const Configuration c2(two, k), c1(one, k);
   // O in S from each body's CoM: they differ by d (in S axes).
   EXPECT_LT((c2.reference_point() - c1.reference_point() - c1.anatomical_to_stability() * d).norm(), 1e-15);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  const BodyStateVector x = moving_state();
   Wrench w;
   w.force = Vec3(1e-3, 2e-4, -1.5e-2);
   w.moment = Vec3(1e-5, -3e-5, 2e-6);
