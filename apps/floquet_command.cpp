@@ -195,6 +195,16 @@ void print_study(const FloquetStudy& s, std::chrono::steady_clock::time_point t0
   fmt::print("done in {:.2f} s\n", seconds_since(t0));
 }
 
+// The study's analyses once its averaged derivatives and phase-resolved derivatives are in: both subsystems beside the
+// averaged model's modes, and the wall time since t0.
+void finish_study(FloquetStudy& s, std::chrono::steady_clock::time_point t0) {
+  const StabilityReport lti = analyse_stability(s.averaged.table);
+  const ReferenceQuantities& ref = s.averaged.table.reference;
+  s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
+  s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
+  s.wall_time_s = seconds_since(t0);
+}
+
 }  // namespace
 
 FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, const TrimResult* averaged,
@@ -216,11 +226,7 @@ FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, co
     const InstantaneousAero aero(model, c.insect, c.kinematics);
     s.phase = phase_resolved_derivatives(aero, std::vector<BodyStateVector>(std::size_t(N), BodyStateVector::Zero()),
                                          s.averaged.table.reference, c.derivatives.relative_step);
-    const StabilityReport lti = analyse_stability(s.averaged.table);
-    const ReferenceQuantities& ref = s.averaged.table.reference;
-    s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
-    s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
-    s.wall_time_s = seconds_since(t0);
+    finish_study(s, t0);
     return s;
   }
   // The averaged trim, cyclic trim, derivatives at the cyclic trim's kinematics (so both analyses see the same
@@ -231,11 +237,7 @@ FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, co
   s.cyclic = std::move(h.cyclic);
   s.averaged = std::move(h.derivatives);
   s.phase = std::move(h.phase);
-  const StabilityReport lti = analyse_stability(s.averaged.table);
-  const ReferenceQuantities& ref = s.averaged.table.reference;
-  s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
-  s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
-  s.wall_time_s = seconds_since(t0);
+  finish_study(s, t0);
   return s;
 }
 

@@ -130,18 +130,6 @@ TEST(CaseFile, AbsurdValuesArePrintedShortInMessages) {
 namespace flapstab {
 namespace {
 
-// The valid case with Berman & Wang (2007, J Fluid Mech 582:153) angle forms instead of Fourier series.
-std::string berman_wang_case_text() {
-  std::string t = testing::valid_case_text();
-  t = testing::replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
-                       "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\n"
-                       "phase_deg = 180.0\n");
-  t = testing::replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
-                       "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\n"
-                       "shape_c = 2.4\n[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 4.0\n"
-                       "harmonic = 2\n");
-  return t;
-}
 
 TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
   const std::string poly = "planform = \"polynomial\"\nchord_coefficients = [1.0, -0.5]";
@@ -163,7 +151,7 @@ TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
 }
 
 TEST(CaseFile, BermanWangAnglesLoad) {
-  const Case c = load_case(testing::write_temp("bw.toml", berman_wang_case_text()));
+  const Case c = load_case(testing::write_temp("bw.toml", testing::berman_wang_case_text()));
   const BermanWangSeries* s = c.kinematics.right.stroke.berman_wang();
   const BermanWangSeries* p = c.kinematics.right.pitch.berman_wang();
   const BermanWangSeries* d = c.kinematics.right.deviation.berman_wang();
@@ -180,7 +168,7 @@ TEST(CaseFile, BermanWangAnglesLoad) {
 }
 
 TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
-  const std::string base = berman_wang_case_text();
+  const std::string base = testing::berman_wang_case_text();
   expect_bad_edits(base, {
       {"shape_k = 0.7", "shape_k = 1.0", "kinematics.stroke.shape_k"},
       {"shape_k = 0.7", "shape_k = 0.0", "kinematics.stroke.shape_k"},

@@ -107,14 +107,10 @@ TEST(TrimParameters, InitialValuesReproduceTheBaseAndAmplitudesScale) {
 
 // Berman & Wang (2007) angle forms: their shape and phase parameters are trim parameters.
 std::string berman_wang_trim_text(const std::string& parameters) {
-  std::string t = valid_case_text();
-  t = replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
-              "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\nphase_deg = 180.0\n");
-  t = replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
-              "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\nshape_c = 2.4\n"
-              "[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 0.0\nharmonic = 2\n");
-  // Phi = 100 deg: the squarer stroke carries the weight at a smaller amplitude than the cosine's 120 deg.
-  t = replace(t, "amplitude_deg = 60.0", "amplitude_deg = 50.0");
+  // Phi = 100 deg: the squarer stroke carries the weight at a smaller amplitude than the cosine's 120 deg; no
+  // deviation to begin with.
+  const std::string t = replace(replace(testing::berman_wang_case_text(), "amplitude_deg = 60.0", "amplitude_deg = 50.0"),
+                                "amplitude_deg = 4.0", "amplitude_deg = 0.0");
   return t.substr(0, t.find("[[trim.parameter]]")) + parameters;
 }
 
