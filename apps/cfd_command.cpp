@@ -1,5 +1,6 @@
 // flapstab cfd: loads the case, runs cfd/navier_stokes/run, prints the result and plots the force history.
 #include "apps/cfd_command.hpp"
+#include "apps/commands.hpp"
 
 #include <iostream>
 #include <fmt/format.h>
@@ -115,7 +116,7 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
 }  // namespace
 
 int run_cfd_command(const CfdCommandOptions& o) {
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "cfd");
   ns::CfdRunOptions opt;
   opt.directory = o.output_dir.empty() ? c.output_directory : o.output_dir;  // read on --restart; never written by a dry run
   opt.restart = o.restart;

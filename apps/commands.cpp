@@ -91,9 +91,19 @@ DerivativeResult derivatives_with_control(const Case& c, const AeroModel& model,
 
 }  // namespace
 
+Case load_case_for(const std::string& path, const std::string& command) {
+  Case c = load_case(path);
+  if (c.body_motion.present)
+    throw InputError(path, "body_motion",
+                     "the translation-only model (prescribed attitude) is solved by flapstab floquet only, not by "
+                     "flapstab " + command,
+                     "flapstab floquet for a case with [body_motion], or the case without it");
+  return c;
+}
+
 int run_trim_hover(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "trim-hover");
   const auto model = make_aero_model(c);
   TrimResult t;
   if (c.aero.model == "cfd") {  // the quasi-steady trim, refined on the CFD cycle means (trim/refine.hpp)
@@ -123,7 +133,7 @@ int run_trim_hover(const CommandOptions& o) {
 
 int run_derivatives(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "derivatives");
   refuse_no_trim_with_cfd(o, c);
   std::optional<CfdStudy> cfd;
   TrimResult t;
@@ -219,7 +229,7 @@ int run_stability(const CommandOptions& o) {
     j = {{"program", "flapstab"}, {"version", FLAPSTAB_VERSION}, {"command", "stability"},
          {"derivative_table", o.derivatives_path}, {"derivative_table_fnv1a64", file_hash(o.derivatives_path)}};
   } else {
-    const Case c = load_case(o.case_path);
+    const Case c = load_case_for(o.case_path, "stability");
     refuse_no_trim_with_cfd(o, c);
     j = metadata_json(c, "stability");
     if (c.aero.model == "cfd") {
@@ -255,7 +265,7 @@ int run_stability(const CommandOptions& o) {
 
 int run_analyze(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "analyze");
   refuse_no_trim_with_cfd(o, c);
   const std::string dir = o.output_dir.empty() ? c.output_directory : o.output_dir;
   const auto model = make_aero_model(c);

@@ -1,6 +1,7 @@
 // The flapstab subcommands as library functions (the CLI in main.cpp only parses arguments).
 #pragma once
 #include <string>
+#include "core/case_file.hpp"
 
 namespace flapstab {
 
@@ -14,6 +15,10 @@ struct CommandOptions {
   bool no_trim = false;      // --no-trim: evaluate at the case's kinematics as they are (derivatives, stability,
                              // floquet, analyze), the residual reported instead of balanced
 };
+
+// load_case for every command but floquet: a case with [body_motion] (the translation-only model, which only
+// `flapstab floquet` solves) is refused with an InputError naming body_motion, before anything is computed or written.
+Case load_case_for(const std::string& path, const std::string& command);
 
 // Each returns the process exit status; errors are thrown (InputError, SolveError) and mapped to
 // exit statuses by main().

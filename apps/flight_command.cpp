@@ -8,6 +8,7 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "apps/commands.hpp"
 #include "apps/plots.hpp"
 #include "apps/results_json.hpp"
 #include "cfd/aero_factory.hpp"
@@ -76,7 +77,7 @@ void require_quasi_steady(const Case& c, const char* command) {
 
 int run_fly(const FlightCommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "fly");
   require_quasi_steady(c, "fly");
   const std::string dir = output_dir(c, o.output_dir);
   const DofSet dofs = parse_dof_set(o.dof.empty() ? c.flight.dof : o.dof, o.dof.empty() ? c.path : "--dof",
@@ -296,7 +297,7 @@ json latency_json(double tau, double T) {
 
 int run_control_map(const FlightCommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Case c = load_case(o.case_path);
+  const Case c = load_case_for(o.case_path, "control-map");
   require_quasi_steady(c, "control-map");
   const std::string dir = output_dir(c, o.output_dir);
   if (c.control.type != "pitch")

@@ -10,6 +10,7 @@
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "flight/hover_model.hpp"
+#include "trim/translation.hpp"
 
 namespace flapstab {
 
@@ -132,6 +133,78 @@ void print_subsystem(const char* title, const FloquetSubsystem& f) {
   if (f.has_flow_sensitivity) fmt::print("  routes agree: max |mu_phase - mu_flow| = {:.2e}\n", f.max_multiplier_difference);
 }
 
+// A trim's parameters as written in floquet.json: the cyclic trim's value beside the averaged trim's.
+json parameters_json(const std::vector<TrimParameterValue>& parameters) {
+  json params = json::array();
+  for (const auto& p : parameters)
+    params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"averaged_trim_value", p.initial},
+                      {"lower", p.lower}, {"upper", p.upper}});
+  return params;
+}
+
+json residuals_json(const std::vector<std::string>& names, const Eigen::VectorXd& values) {
+  json residuals = json::object();
+  for (std::size_t i = 0; i < names.size(); ++i) residuals[names[i]] = values(Eigen::Index(i));
+  return residuals;
+}
+
+// The outcome of a shooting trim (CyclicTrimResult, TranslationTrimResult): the keys both write under "cyclic_trim".
+template <class ShootingResult>
+json shooting_json(const ShootingResult& r, const std::string& residual_scaling) {
+  return {{"converged", r.converged},
+          {"residual", r.residual},
+          {"residual_scaling", residual_scaling},
+          {"residuals", residuals_json(r.residual_names, r.residuals)},
+          {"iterations", r.iterations},
+          {"integrations", r.integrations},
+          {"message", r.message},
+          {"period_s", r.period},
+          {"parameters", parameters_json(r.parameters)},
+          {"kinematics", kinematics_json(r.kinematics)}};
+}
+
+// What every free-model floquet.json holds after its trim: the averaged derivatives, the phase-resolved derivatives
+// (taken `about` what the caller says), both subsystems (the longitudinal one's keys also at the top level) and the
+// wall time.
+void add_study_json(json& j, const FloquetStudy& s, const std::string& about) {
+  j["derivatives"] = derivatives_json(s.averaged);
+  j["phase_resolved_derivatives"] = {{"phases", s.phase.samples.size()},
+                                     {"relative_step", s.phase.relative_step},
+                                     {"velocity_step_m_s", s.phase.velocity_step},
+                                     {"rate_step_rad_s", s.phase.rate_step},
+                                     {"about", about},
+                                     {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}};
+  const json lon_j = subsystem_json(s.longitudinal);
+  for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();
+  j["longitudinal"] = lon_j;
+  j["lateral"] = subsystem_json(s.lateral);
+  j["wall_time_s"] = s.wall_time_s;
+}
+
+// floquet.json to --json FILE and/or DIR/floquet.json (atomic, both or neither).
+void write_floquet_json(const CommandOptions& o, const std::string& text) {
+  std::vector<std::pair<std::string, std::string>> out;
+  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
+  if (!o.output_dir.empty()) out.emplace_back(o.output_dir + "/floquet.json", text);
+  write_files_atomic(out);
+}
+
+void print_study(const FloquetStudy& s, std::chrono::steady_clock::time_point t0) {
+  print_subsystem("longitudinal", s.longitudinal);
+  print_subsystem("lateral", s.lateral);
+  fmt::print("done in {:.2f} s\n", seconds_since(t0));
+}
+
+// The study's analyses once its averaged derivatives and phase-resolved derivatives are in: both subsystems beside the
+// averaged model's modes, and the wall time since t0.
+void finish_study(FloquetStudy& s, std::chrono::steady_clock::time_point t0) {
+  const StabilityReport lti = analyse_stability(s.averaged.table);
+  const ReferenceQuantities& ref = s.averaged.table.reference;
+  s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
+  s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
+  s.wall_time_s = seconds_since(t0);
+}
+
 }  // namespace
 
 FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, const TrimResult* averaged,
@@ -153,11 +226,7 @@ FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, co
     const InstantaneousAero aero(model, c.insect, c.kinematics);
     s.phase = phase_resolved_derivatives(aero, std::vector<BodyStateVector>(std::size_t(N), BodyStateVector::Zero()),
                                          s.averaged.table.reference, c.derivatives.relative_step);
-    const StabilityReport lti = analyse_stability(s.averaged.table);
-    const ReferenceQuantities& ref = s.averaged.table.reference;
-    s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
-    s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
-    s.wall_time_s = seconds_since(t0);
+    finish_study(s, t0);
     return s;
   }
   // The averaged trim, cyclic trim, derivatives at the cyclic trim's kinematics (so both analyses see the same
@@ -168,11 +237,7 @@ FloquetStudy floquet_study(const Case& c, const AeroModel& model, int phases, co
   s.cyclic = std::move(h.cyclic);
   s.averaged = std::move(h.derivatives);
   s.phase = std::move(h.phase);
-  const StabilityReport lti = analyse_stability(s.averaged.table);
-  const ReferenceQuantities& ref = s.averaged.table.reference;
-  s.longitudinal = subsystem("longitudinal", longitudinal_states, s, lti.longitudinal, ref);
-  s.lateral = subsystem("lateral", lateral_states, s, lti.lateral, ref);
-  s.wall_time_s = seconds_since(t0);
+  finish_study(s, t0);
   return s;
 }
 
@@ -192,24 +257,9 @@ json floquet_json(const Case& c, const FloquetStudy& s) {
                                      s.averaged_trim.moment_residual.z()}},
                      {"force_relative_to_weight", s.averaged_trim.relative_force_residual},
                      {"moment_relative_to_weight_times_wing_length", s.averaged_trim.relative_moment_residual}};
-    j["derivatives"] = derivatives_json(s.averaged);
-    j["phase_resolved_derivatives"] = {{"phases", s.phase.samples.size()},
-                                       {"relative_step", s.phase.relative_step},
-                                       {"about", "the body held at rest at the case's kinematics (--no-trim)"},
-                                       {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}};
-    const json lon_j = subsystem_json(s.longitudinal);
-    for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();
-    j["longitudinal"] = lon_j;
-    j["lateral"] = subsystem_json(s.lateral);
-    j["wall_time_s"] = s.wall_time_s;
+    add_study_json(j, s, "the body held at rest at the case's kinematics (--no-trim)");
     return j;
   }
-  json params = json::array();
-  for (const auto& p : ct.parameters)
-    params.push_back({{"name", p.label}, {"unit", p.unit}, {"value", p.value}, {"averaged_trim_value", p.initial},
-                      {"lower", p.lower}, {"upper", p.upper}});
-  json residuals = json::object();
-  for (std::size_t i = 0; i < ct.residual_names.size(); ++i) residuals[ct.residual_names[i]] = ct.residuals(Eigen::Index(i));
   const std::vector<std::string> lon{"u", "w", "q", "theta"};
   json amp_si = json::object(), amp_nd = json::object(), mean_si = json::object();
   for (int i = 0; i < 4; ++i) {
@@ -218,62 +268,82 @@ json floquet_json(const Case& c, const FloquetStudy& s) {
     mean_si[lon[std::size_t(i)]] = ct.mean_si(i);
   }
   const BodyStateVector& x0 = ct.initial_state;
-  j["cyclic_trim"] = {
-      {"converged", ct.converged},
-      {"residual", ct.residual},
-      {"residual_scaling", "velocities / U, rates * c / U, angles rad, drifts / c; max-norm"},
-      {"residuals", residuals},
-      {"iterations", ct.iterations},
-      {"integrations", ct.integrations},
-      {"message", ct.message},
-      {"period_s", ct.period},
-      {"parameters", params},
+  j["cyclic_trim"] = shooting_json(ct, "velocities / U, rates * c / U, angles rad, drifts / c; max-norm");
+  j["cyclic_trim"].update(json{
       {"initial_state", {{"u_m_s", x0(3)}, {"w_m_s", x0(5)}, {"q_rad_s", x0(7)}, {"theta_rad", x0(10)}}},
       {"mean_theta_rad", ct.mean_theta},
       {"oscillation_amplitude_si", amp_si},
       {"oscillation_amplitude_nd", amp_nd},
       {"oscillation_note", "half peak-to-peak over the wingbeat (m/s, rad/s, rad; nd: / U, * c / U, rad)"},
       {"cycle_mean_si", mean_si},
-      {"symmetry_residual", ct.symmetry_residual},
-      {"kinematics", kinematics_json(ct.kinematics)}};
+      {"symmetry_residual", ct.symmetry_residual}});
   j["averaged_trim"] = trim_json(s.averaged_trim);
-  j["derivatives"] = derivatives_json(s.averaged);
-  j["phase_resolved_derivatives"] = {{"phases", s.phase.samples.size()},
-                                     {"relative_step", s.phase.relative_step},
-                                     {"velocity_step_m_s", s.phase.velocity_step},
-                                     {"rate_step_rad_s", s.phase.rate_step},
-                                     {"about", "the cyclic orbit (each phase's own body velocity and rates)"},
-                                     {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}};
-  // The longitudinal subsystem is the headline: its keys at the top level.
-  const json lon_j = subsystem_json(s.longitudinal);
-  for (auto it = lon_j.begin(); it != lon_j.end(); ++it) j[it.key()] = it.value();
-  j["longitudinal"] = lon_j;
-  j["lateral"] = subsystem_json(s.lateral);
-  j["wall_time_s"] = s.wall_time_s;
+  add_study_json(j, s, "the cyclic orbit (each phase's own body velocity and rates)");
   return j;
+}
+
+// [body_motion] model = "translation-only": the averaged trim as the start, the translation-only cyclic trim, and the
+// Floquet exponents of [u, v, w] from its monodromy (trim/translation.hpp).
+int run_translation_floquet(const Case& c, const AeroModel& model, const CommandOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.no_trim)
+    throw InputError(c.path, "body_motion", "--no-trim is not available with the translation-only model",
+                     "the translation-only cyclic trim (without --no-trim)");
+  check_translation_case(c, model);
+  const TrimResult averaged = trim_hover(c, model);
+  const TranslationTrimResult tr = translation_cyclic_trim(c, model, averaged.kinematics);
+  if (!tr.converged)
+    throw SolveError(fmt::format("{}: the translation-only cyclic trim did not converge ({}; residual {:.2e})", c.path,
+                                 tr.message, tr.residual));
+  const ReferenceQuantities ref = reference_quantities(c.insect, tr.kinematics, c.fluid);
+  const std::vector<std::string> order{"u", "v", "w"};
+  const FloquetAnalysis f = floquet_analysis("translation", order, tr.monodromy, tr.period,
+                                             nondimensional_state_scale(order, ref), ref);
+  json j = metadata_json(c, "floquet");
+  j["model"] = "translation-only";
+  j["model_note"] = "attitude prescribed (the trimmed attitude turned by [body_motion]'s roll, pitch and yaw series), "
+                    "position and velocity free; the force equations only (docs/case-file.md [body_motion])";
+  const Vec3 &v0 = tr.initial_velocity, &vm = tr.mean_velocity;
+  j["cyclic_trim"] = shooting_json(tr, "velocities / U, drifts / c; max-norm");
+  j["cyclic_trim"]["initial_velocity_m_s"] = {v0.x(), v0.y(), v0.z()};
+  j["cyclic_trim"]["cycle_mean_velocity_m_s"] = {vm.x(), vm.y(), vm.z()};
+  j["averaged_trim"] = trim_json(averaged);
+  const json a = analysis_json(f);
+  for (auto it = a.begin(); it != a.end(); ++it) j[it.key()] = it.value();
+  j["route"] = "flow_sensitivity: d[u v w](T) / d[u v w](0) of the translation-only system about its cyclic orbit, "
+               "CVODES forward sensitivities (rtol 1e-12)";
+  j["wall_time_s"] = seconds_since(t0);
+  write_floquet_json(o, j.dump(2) + "\n");
+  if (!o.quiet) {
+    fmt::print("{}: translation-only cyclic trim of '{}': residual {:.2e} after {} Newton iterations ({} integrations)\n",
+               c.path, c.insect.name, tr.residual, tr.iterations, tr.integrations);
+    for (const auto& p : tr.parameters)
+      fmt::print("  {:<24} {:>12.6f} {:<3} (averaged trim {:.6f})\n", p.label, p.value, p.unit, p.initial);
+    fmt::print("translation (u, v, w; non-dimensional per t+ = t U / c, and per wingbeat):\n");
+    for (const Mode& m : f.modes.modes)
+      fmt::print("  {:<40} {:>26} {:>26} {:>12.6f}\n", m.name, fmt_c(m.eigenvalue_nd), fmt_c(m.eigenvalue_per_wingbeat),
+                 std::exp(m.eigenvalue_per_wingbeat.real()));
+    fmt::print("done in {:.2f} s\n", seconds_since(t0));
+  }
+  return 0;
 }
 
 int run_floquet(const CommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case(o.case_path);
   const auto model = make_aero_model(c);
+  if (c.body_motion.present) return run_translation_floquet(c, *model, o);
   if (o.no_trim && c.aero.model == "cfd")
     throw InputError(c.path, "aero.model", "--no-trim is not available with the CFD model",
                      "model = \"quasi-steady\" for --no-trim");
   const FloquetStudy s = floquet_study(c, *model, 0, nullptr, o.no_trim);
-  const std::string text = floquet_json(c, s).dump(2) + "\n";
-  std::vector<std::pair<std::string, std::string>> out;
-  if (!o.json_path.empty()) out.emplace_back(o.json_path, text);
-  if (!o.output_dir.empty()) out.emplace_back(o.output_dir + "/floquet.json", text);
-  write_files_atomic(out);
+  write_floquet_json(o, floquet_json(c, s).dump(2) + "\n");
   if (!o.quiet && s.no_trim) {
     const TrimResult& t = s.averaged_trim;
     fmt::print("{}: '{}' NOT TRIMMED (--no-trim): residual force {:.3e} x weight, moment {:.3e} x weight x R; A(t) "
                "about the body held at rest\n", c.path, c.insect.name, t.relative_force_residual,
                t.relative_moment_residual);
-    print_subsystem("longitudinal", s.longitudinal);
-    print_subsystem("lateral", s.lateral);
-    fmt::print("done in {:.2f} s\n", seconds_since(t0));
+    print_study(s, t0);
   } else if (!o.quiet) {
     const CyclicTrimResult& ct = s.cyclic;
     fmt::print("{}: cyclic hover trim of '{}': residual {:.2e} after {} Newton iterations ({} integrations)\n", c.path,
@@ -286,9 +356,7 @@ int run_floquet(const CommandOptions& o) {
                "{:.3e} rad ({:.3f} deg)\n",
                ct.amplitude_si(0), ct.amplitude_si(1), ct.amplitude_si(2), ct.amplitude_si(3),
                ct.amplitude_si(3) / deg);
-    print_subsystem("longitudinal", s.longitudinal);
-    print_subsystem("lateral", s.lateral);
-    fmt::print("done in {:.2f} s\n", seconds_since(t0));
+    print_study(s, t0);
   }
   return 0;
 }

@@ -1,6 +1,7 @@
 // Case-file parsing and validation (toml++). Every key is checked; unknown keys are errors.
 #include "core/case_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
@@ -351,6 +352,40 @@ AngleSeries parse_angle(Section s, const std::string& name, double default_mean_
   return out;
 }
 
+// [abdomen]: the second body segment (core/insect.hpp Abdomen). The inertia is given about the joint, in the
+// abdomen frame (A at zero relative pitch), and held about the abdomen's CoM.
+Abdomen parse_abdomen(Section s) {
+  Abdomen a;
+  a.mass = s.positive("mass_kg", "kg");
+  auto point = [&s](const char* key, const std::string& expected) {
+    const auto v = s.numbers(key, expected, true);
+    if (v.size() != 3) s.fail(key, fmt::format("has {} components", v.size()), expected);
+    if (v[1] != 0) s.fail(key, fmt::format("y = {:.6g} is off the plane of symmetry", v[1]), expected);
+    return Vec3(v[0], v[1], v[2]);
+  };
+  a.joint = point("joint_m", "[x, 0, z] of the thorax-abdomen joint in body axes A, from the thorax CoM (m)");
+  a.centre = point("mass_centre_m", "[x, 0, z] of the abdomen CoM from the joint, abdomen axes (m)");
+  if (!s.has("inertia_joint_kg_m2"))
+    s.fail("inertia_joint_kg_m2", "missing", "{ xx, yy, zz, xz } about the joint, abdomen axes (kg m^2)");
+  Section in = s.sub("inertia_joint_kg_m2", true);
+  const double xx = in.positive("xx", "kg m^2"), yy = in.positive("yy", "kg m^2"), zz = in.positive("zz", "kg m^2"),
+               xz = in.number_or("xz", 0.0, "a number in kg m^2");
+  in.reject_unknown();
+  Mat3 ij;
+  ij << xx, 0, -xz, 0, yy, 0, -xz, 0, zz;  // product of inertia Ixz = int x z dm
+  const Vec3& c = a.centre;
+  a.inertia_cg = ij - a.mass * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+  const double lowest = Eigen::SelfAdjointEigenSolver<Mat3>(a.inertia_cg).eigenvalues().minCoeff();
+  if (lowest < -1e-12 * ij.norm())
+    s.fail("inertia_joint_kg_m2",
+           fmt::format("inconsistent with the abdomen mass and mass centre (a principal inertia about its CoM of {:.4g} "
+                       "kg m^2)", lowest),
+           "an inertia about the joint at least m |r_cg|^2 about each axis");
+  a.pitch = parse_angle(s.sub("pitch", false), "pitch", 0.0);
+  s.reject_unknown();
+  return a;
+}
+
 WingAngles parse_wing_angles(Section& s, const std::string& dir, const WingAngles* fallback) {
   if (s.has("file")) {
     const std::string f = s.string("file", true);
@@ -612,6 +647,7 @@ Case load_case(const std::string& path) {
   c.insect.body = parse_body(top.sub("body", true));
   c.insect.wing = parse_wing(top.sub("wing", true));
   if (top.has("hind_wing")) c.insect.hind_wing = parse_wing(top.sub("hind_wing", true));
+  if (top.has("abdomen")) c.insect.abdomen = parse_abdomen(top.sub("abdomen", true));
   c.kinematics = parse_kinematics(top.sub("kinematics", true), dir);
   // A hind pair needs both its wing ([hind_wing]: planform, hinge, mass) and its kinematics ([kinematics.hind]).
   if (c.insect.hind_wing && !c.kinematics.has_hind)
@@ -653,6 +689,9 @@ Case load_case(const std::string& path) {
   if (c.insect.hind_wing && c.aero.model == "cfd")
     throw InputError(path, "aero.model", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
                      "model = \"quasi-steady\" for a hind pair");
+  if (c.insect.abdomen && c.aero.model == "cfd")
+    throw InputError(path, "aero.model", "an insect with an [abdomen] is not in the CFD geometry (one rigid body)",
+                     "model = \"quasi-steady\" for an abdomen");
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});
@@ -785,6 +824,34 @@ Case load_case(const std::string& path) {
   k.map_check_wingbeats = cm.positive_or("check_wingbeats", k.map_check_wingbeats, "wingbeats");
   cm.reject_unknown();
   ctl.reject_unknown();
+
+  // [body_motion]: prescribed attitude and the translation-only model (docs/case-file.md).
+  Section bm = top.sub("body_motion", false);
+  if (bm.present()) {
+    auto& b = c.body_motion;
+    b.present = true;
+    b.model = bm.string("model", true, {}, {"translation-only"});
+    for (const auto& [key, series] : {std::pair{"roll", &b.roll}, std::pair{"pitch", &b.pitch}, std::pair{"yaw", &b.yaw}})
+      *series = parse_angle(bm.sub(key, false), "pitch", 0.0);
+    const std::string expected = "names of the case's [[trim.parameter]] entries, at least one, each once";
+    const toml::node* tp = bm.node("trim_parameters");
+    if (!tp || !tp->is_array() || tp->as_array()->empty())
+      bm.fail("trim_parameters", tp ? "is not a non-empty array" : "missing", expected);
+    for (const auto& e : *tp->as_array()) {
+      if (!e.is_string()) bm.fail("trim_parameters", "holds a non-string entry", expected);
+      const std::string name = e.as_string()->get();
+      if (std::none_of(c.trim.parameters.begin(), c.trim.parameters.end(),
+                       [&](const TrimParameterSpec& p) { return p.name == name && p.side == ParameterSide::both; }))
+        bm.fail("trim_parameters", "\"" + name + "\" is not a [[trim.parameter]] acting on both wings", expected);
+      if (std::count(b.trim_parameters.begin(), b.trim_parameters.end(), name))
+        bm.fail("trim_parameters", "\"" + name + "\" given twice", expected);
+      b.trim_parameters.push_back(name);
+    }
+    bm.reject_unknown();
+    if (c.aero.model == "cfd")
+      throw InputError(path, "aero.model", "the translation-only model ([body_motion]) needs instantaneous loads",
+                       "model = \"quasi-steady\" with [body_motion]");
+  }
 
   Section out = top.sub("output", false);
   c.output_directory = out.string("directory", false, "out");

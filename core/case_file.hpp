@@ -150,6 +150,15 @@ struct ControlSettings {
   double map_check_wingbeats = 15;
 };
 
+// [body_motion]: the body's attitude prescribed as the trimmed attitude turned by periodic 3-2-1 Euler angles, with
+// the translation-only model (trim/translation.hpp): position and velocity free, attitude not.
+struct BodyMotionSettings {
+  bool present = false;
+  std::string model = "translation-only";
+  AngleSeries roll, pitch, yaw;              // rad, against the wingbeat phase; zero when not given
+  std::vector<std::string> trim_parameters;  // the [[trim.parameter]] names its cyclic trim varies
+};
+
 struct Case {
   std::string path;          // the case file
   std::string description;
@@ -162,6 +171,7 @@ struct Case {
   DerivativeSettings derivatives;
   FlightSettings flight;
   ControlSettings control;
+  BodyMotionSettings body_motion;
   std::string output_directory = "out";
 };
 

@@ -35,6 +35,7 @@ Configuration::Configuration(const Insect& insect, const Kinematics& kin)
     if (insect.hind_wing)
       sum += insect.hind_wing->mass * (wing_cg_about_body_cg(Side::right, t, Pair::hind) +
                                        wing_cg_about_body_cg(Side::left, t, Pair::hind));
+    if (insect.abdomen) sum += insect.abdomen->mass * abdomen_cg_about_body_cg(t);
   }
   o_ = sum / n / insect.total_mass();
 }
@@ -53,6 +54,17 @@ Vec3 Configuration::wing_cg_about_body_cg(Side s, double t, Pair pair) const {
   const Wing& wing = insect_.pair_wing(pair);
   const Vec3 local = r_sa_ * wing.hinge + r_sp_ * R * wing.mass_centre;
   return s == Side::right ? local : Vec3(mirror_y() * local);
+}
+
+Vec3 Configuration::abdomen_cg_about_body_cg(double t, Mat3* axes, double* rate, double* acc) const {
+  const Abdomen& a = *insect_.abdomen;
+  const double n = kin_.frequency_hz;
+  const SeriesValue eta = a.pitch.eval(t * n);
+  const Mat3 R = r_sa_ * rot_y(eta.f);
+  if (axes) *axes = R;
+  if (rate) *rate = eta.df * n;
+  if (acc) *acc = eta.ddf * n * n;
+  return r_sa_ * a.joint + R * a.centre;
 }
 
 WingPose Configuration::wing_pose(Side s, double t, Pair pair) const {
@@ -100,6 +112,20 @@ MassState Configuration::mass_state(double t) const {
       w.omega = p.omega;
       w.omega_dot = p.omega_dot;
     }
+  }
+  if (insect_.abdomen) {
+    // Rotation about the y axis shared by A and S: the relative angular velocity is (0, eta', 0) in both.
+    const Abdomen& ab = *insect_.abdomen;
+    Mat3 R;
+    double rate = 0, acc = 0;
+    m.abdomen.mass = ab.mass;
+    m.abdomen.r = abdomen_cg_about_body_cg(t, &R, &rate, &acc) - o_;
+    m.abdomen.omega = Vec3(0, rate, 0);
+    m.abdomen.omega_dot = Vec3(0, acc, 0);
+    const Vec3 d = R * ab.centre;  // joint to CoM
+    m.abdomen.r_dot = m.abdomen.omega.cross(d);
+    m.abdomen.r_ddot = m.abdomen.omega_dot.cross(d) + m.abdomen.omega.cross(m.abdomen.omega.cross(d));
+    m.abdomen.inertia = R * ab.inertia_cg * R.transpose();
   }
   return m;
 }

@@ -5,6 +5,7 @@
 // y right, z down. The anatomical frame A is S pitched nose-up by the body angle chi; each wing's
 // stroke-plane frame P is S pitched nose-up by the stroke-plane angle beta (by chi + beta when the stroke plane is
 // fixed to the body, Kinematics::stroke_plane_on_body).
+// The abdomen (Insect::abdomen) is A turned by its relative pitch eta(t) about the joint's y axis.
 // Right wing orientation (wing frame -> P): Rz(-phi) Rx(-theta) Ry(alpha); the left wing is the
 // mirror image in the x-z plane (positions and velocities map by M = diag(1,-1,1), angular
 // velocities by -M).
@@ -43,13 +44,21 @@ struct PartMass {
 struct MassState {
   PartMass body, right, left;
   PartMass hind_right, hind_left;  // the hind pair (mass 0 for a two-winged insect)
-  double total_mass() const { return body.mass + right.mass + left.mass + hind_right.mass + hind_left.mass; }
-  Vec3 first_moment() const {
-    return body.mass * body.r + right.mass * right.r + left.mass * left.r + hind_right.mass * hind_right.r +
-           hind_left.mass * hind_left.r;
-  }
+  PartMass abdomen;                // the abdomen (mass 0 without one)
   // Every part, for sums over the system.
-  std::array<const PartMass*, 5> parts() const { return {&body, &right, &left, &hind_right, &hind_left}; }
+  std::array<const PartMass*, 6> parts() const {
+    return {&body, &right, &left, &hind_right, &hind_left, &abdomen};
+  }
+  double total_mass() const {
+    double m = 0;
+    for (const PartMass* p : parts()) m += p->mass;
+    return m;
+  }
+  Vec3 first_moment() const {
+    Vec3 c = Vec3::Zero();
+    for (const PartMass* p : parts()) c += p->mass * p->r;
+    return c;
+  }
 };
 
 class Configuration {
@@ -71,6 +80,9 @@ class Configuration {
 
  private:
   Vec3 wing_cg_about_body_cg(Side s, double t, Pair p) const;
+  // The abdomen's CoM from the body CoM (S axes), its orientation (abdomen frame -> S) and the relative pitch's
+  // rate and acceleration (rad/s, rad/s^2) at time t.
+  Vec3 abdomen_cg_about_body_cg(double t, Mat3* axes = nullptr, double* rate = nullptr, double* acc = nullptr) const;
   const Insect& insect_;
   const Kinematics& kin_;
   Mat3 r_sa_, r_sp_;

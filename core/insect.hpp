@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+#include "core/series.hpp"
 #include "core/types.hpp"
 
 namespace flapstab {
@@ -46,15 +47,31 @@ struct Wing {
   void plate_mass_properties(Vec3& centre, Mat3& inertia_hinge) const;
 };
 
+// A second body segment hinged to the thorax ([abdomen]): the "body" above is then the thorax (with the head), and
+// A keeps its origin at the thorax's own CoM. The abdomen turns about the joint's y axis (the body's pitch axis)
+// by a relative pitch eta(t) prescribed as a periodic series of the wingbeat phase; positive eta turns it the way
+// a nose-up pitch turns the body (the tip of an aft-pointing abdomen moves ventrally). Its frame coincides with A
+// at eta = 0 and is A turned by rot_y(eta) otherwise.
+struct Abdomen {
+  double mass = 0;                    // kg
+  Vec3 joint = Vec3::Zero();          // joint position in A, from the thorax CoM (m)
+  Vec3 centre = Vec3::Zero();         // abdomen CoM from the joint, abdomen frame (m)
+  Mat3 inertia_cg = Mat3::Zero();     // about the abdomen CoM, abdomen frame (kg m^2)
+  AngleSeries pitch;                  // eta (rad) against the wingbeat phase tau = t f (cycles)
+};
+
 struct Insect {
   std::string name;
   Body body;
   Wing wing;                      // the fore pair (the only pair of a two-winged insect)
   std::optional<Wing> hind_wing;  // the hind pair of a four-winged insect: own planform, hinge and mass
+  std::optional<Abdomen> abdomen; // a second body segment with prescribed relative pitch
   // Gravitational acceleration where it flies (m/s^2; [environment] gravity_m_s2). Kept with the insect because
   // everything that weighs it (trim, equations of motion, derivatives, free flight) already takes the insect.
   double gravity = standard_gravity;
-  double total_mass() const { return body.mass + 2 * wing.mass + (hind_wing ? 2 * hind_wing->mass : 0.0); }
+  double total_mass() const {
+    return body.mass + 2 * wing.mass + (hind_wing ? 2 * hind_wing->mass : 0.0) + (abdomen ? abdomen->mass : 0.0);
+  }
   const Wing& pair_wing(Pair p) const { return p == Pair::hind ? *hind_wing : wing; }
   double weight() const { return total_mass() * gravity; }
 };

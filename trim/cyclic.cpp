@@ -6,6 +6,7 @@
 
 #include "cfd/derivatives.hpp"
 #include "core/errors.hpp"
+#include "trim/newton.hpp"
 #include "trim/ode.hpp"
 #include "trim/parameters.hpp"
 
@@ -181,34 +182,15 @@ CyclicTrimResult cyclic_trim(const Case& c, const AeroModel& model, const TrimRe
 
   CyclicTrimResult res;
   res.residual_names = {"u", "w", "q", "theta", "x_drift", "z_drift", "mean_theta"};
-  Eigen::MatrixXd J;
-  Eigen::VectorXd r = shoot.residual(z, &J);
-  for (res.iterations = 0; res.iterations < o.max_iterations; ++res.iterations) {
-    if (r.cwiseAbs().maxCoeff() <= o.tolerance) {
-      res.converged = true;
-      break;
-    }
-    // Newton step (least squares / minimum norm when not square), halved until |r| decreases.
-    const Eigen::VectorXd dz = -J.completeOrthogonalDecomposition().solve(r);
-    double alpha = 1;
-    Eigen::VectorXd z_new, r_new;
-    for (int k = 0; k < 12; ++k, alpha /= 2) {
-      z_new = z + alpha * dz;
-      r_new = shoot.residual(z_new, nullptr);
-      if (r_new.norm() < r.norm()) break;
-    }
-    if (!(r_new.norm() < r.norm())) {
-      res.message = "line search failed to reduce the periodicity residual";
-      break;
-    }
-    z = z_new;
-    r = r_new.cwiseAbs().maxCoeff() <= o.tolerance ? r_new : shoot.residual(z, &J);
-  }
-  if (!res.converged && r.cwiseAbs().maxCoeff() <= o.tolerance) res.converged = true;
-  if (!res.converged && res.message.empty())
-    res.message = fmt::format("no convergence in {} Newton iterations", o.max_iterations);
-  res.residuals = r;
-  res.residual = r.cwiseAbs().maxCoeff();
+  const NewtonOutcome n = newton_solve(
+      [&shoot](const Eigen::VectorXd& zz, Eigen::MatrixXd* J) { return shoot.residual(zz, J); }, z, o.tolerance,
+      o.max_iterations);
+  z = n.z;
+  res.converged = n.converged;
+  res.iterations = n.iterations;
+  res.message = n.message;
+  res.residuals = n.r;
+  res.residual = n.r.cwiseAbs().maxCoeff();
 
   const std::vector<double> p = shoot.parameters(z);
   res.kinematics = par.apply(p);

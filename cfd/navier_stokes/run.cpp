@@ -129,6 +129,9 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& o) {
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
+  if (c.insect.abdomen)  // before anything is planned or written
+    throw InputError(c.path, "abdomen", "an insect with an abdomen is not in the CFD geometry (one rigid body)",
+                     "a case without [abdomen] for the CFD model");
   const CfdSettings& s = c.aero.cfd;
   std::ostream* log = o.log;
   CfdResult res;

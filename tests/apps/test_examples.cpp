@@ -4,11 +4,14 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fmt/format.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include "common/case_text.hpp"
+#include "core/case_file.hpp"
+#include "core/rotation.hpp"
 
 namespace flapstab {
 namespace {
@@ -62,6 +65,14 @@ nlohmann::json trim(const std::string& path) {
   return fs::exists(dir / "trim.json") ? json_of(dir / "trim.json") : nlohmann::json{};
 }
 
+// The text of a file of the source tree (path relative to it) with each (from, to) edit made once; the test fails
+// when a `from` is missing.
+std::string edited(const std::string& path, const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = slurp(source + "/" + path);
+  for (const auto& [from, to] : edits) text = testing::replace(text, from, to);
+  return text;
+}
+
 TEST(Examples, RevolvingFlyer) {
   const nlohmann::json j = analyze("revolving_hawkmoth.toml");
   ASSERT_FALSE(j.is_null());
@@ -94,10 +105,7 @@ TEST(Examples, MarsGravityTrimsAtTheScaledFrequency) {
   // without [environment] (standard gravity) must trim at sqrt(9.80665 / 3.71) times the frequency, with the same
   // means (analytic similarity; 1e-8 relative, the trim tolerance).
   const nlohmann::json mars = analyze("mars_gravity_hawkmoth.toml");
-  std::string text = slurp(source + "/data/examples/mars_gravity_hawkmoth.toml");
-  const std::string env = "[environment]\ngravity_m_s2 = 3.71";
-  ASSERT_NE(text.find(env), std::string::npos);
-  text.replace(text.find(env), env.size(), "");
+  const std::string text = edited("data/examples/mars_gravity_hawkmoth.toml", {{"[environment]\ngravity_m_s2 = 3.71", ""}});
   const nlohmann::json earth = trim(testing::write_temp("earth_gravity_hawkmoth.toml", text));
   ASSERT_FALSE(mars.is_null() || earth.is_null());
   const auto& pm = mars["trim"]["parameters"];
@@ -125,10 +133,8 @@ TEST(Examples, CoefficientTableTrimsLikeTheSetItSamples) {
   // (10 deg)^4 x 16 x 1.678 / 27 = 9e-4, a relative lift error of 5e-4 at most, which moves the trimmed amplitude
   // (Phi ~ C_L^(-1/2)) by at most 120 deg x 2.7e-4 = 0.03 deg: 0.05 deg stated for every parameter.
   const nlohmann::json t = analyze("coefficient_table_hawkmoth.toml");
-  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
-  const std::string set = "coefficients = \"robofly\"";
-  ASSERT_NE(text.find(set), std::string::npos);
-  text.replace(text.find(set), set.size(), "coefficients = \"berman-wang\"");
+  const std::string text =
+      edited("data/insects/hawkmoth.toml", {{"coefficients = \"robofly\"", "coefficients = \"berman-wang\""}});
   const nlohmann::json b = trim(testing::write_temp("hawkmoth_berman_wang_set.toml", text));
   ASSERT_FALSE(t.is_null() || b.is_null());
   for (std::size_t i = 0; i < 3; ++i)
@@ -149,12 +155,9 @@ TEST(Examples, FourWingsOfTwoIdenticalPairsTrimAtOneOverSqrtTwo) {
   // loads, which scale as n^2 at fixed angles - the trimmed frequency is the two-winged hawkmoth's / sqrt(2), with
   // the same means (analytic similarity; 1e-8 relative, the trim tolerance).
   const nlohmann::json four = analyze("four_wing_hawkmoth.toml");
-  std::string text = slurp(source + "/data/insects/hawkmoth.toml");
-  const std::string amp = "name = \"stroke_amplitude_deg\"";
-  ASSERT_NE(text.find(amp), std::string::npos);
-  text.replace(text.find(amp), amp.size(), "name = \"frequency_hz\"");
-  text.replace(text.find("lower = 90.0"), 12, "lower = 5.0");
-  text.replace(text.find("upper = 150.0"), 13, "upper = 40.0");
+  const std::string text = edited("data/insects/hawkmoth.toml", {{"name = \"stroke_amplitude_deg\"", "name = \"frequency_hz\""},
+                                                               {"lower = 90.0", "lower = 5.0"},
+                                                               {"upper = 150.0", "upper = 40.0"}});
   const nlohmann::json two = trim(testing::write_temp("two_wing_frequency_hawkmoth.toml", text));
   ASSERT_FALSE(four.is_null() || two.is_null());
   const auto& p4 = four["trim"]["parameters"];
@@ -176,6 +179,105 @@ TEST(Examples, BodyFixedStrokePlaneGivesTheSameWingbeat) {
   for (std::size_t i = 0; i < 3; ++i)
     EXPECT_NEAR(double(b["trim"]["parameters"][i]["value"]), double(h["trim"]["parameters"][i]["value"]), 1e-8)
         << h["trim"]["parameters"][i]["name"];
+}
+
+// Largest |a - b| over two JSON arrays or objects of numbers (nested), relative to max(1, |b|).
+double largest_difference(const nlohmann::json& a, const nlohmann::json& b) {
+  if (a.is_number()) return std::abs(double(a) - double(b)) / std::max(1.0, std::abs(double(b)));
+  double d = 0;
+  if (a.is_array())
+    for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, largest_difference(a[i], b[i]));
+  else if (a.is_object())
+    for (auto it = a.begin(); it != a.end(); ++it)
+      if (it.value().is_number() || it.value().is_structured()) d = std::max(d, largest_difference(it.value(), b[it.key()]));
+  return d;
+}
+
+TEST(Examples, RigidAbdomenEqualsTheCombinedBody) {
+  // The example's abdomen oscillates; held rigid at a bent 8 deg it is one body with the combined mass properties
+  // (mass, CoM d = m_a p / m, inertia by the parallel-axis theorem, the hinge moved by -d, written at 17 digits):
+  // the same trim, derivatives, LTI eigenvalues and Floquet exponents to round-off (measured: trim 2e-14,
+  // derivatives 1e-13 - round-off over the 1 % difference step -, eigenvalues 8e-15) and, for the exponents, to the
+  // cyclic trim's integration (measured 1.5e-11: two adaptive CVODES runs at rtol 1e-12 from 1e-16-close inputs).
+  const nlohmann::json osc = analyze("abdomen_hawkmoth.toml");
+  ASSERT_FALSE(osc.is_null());
+  EXPECT_TRUE(osc["trim"]["converged"].get<bool>());
+  EXPECT_TRUE(osc["floquet"]["cyclic_trim"]["converged"].get<bool>());
+  const std::string rigid = edited("data/examples/abdomen_hawkmoth.toml", {{"mean_deg = 0.0\ncos_deg = [5.0]", "mean_deg = 8.0"}});
+  const std::string rigid_path = testing::write_temp("rigid_abdomen_hawkmoth.toml", rigid);
+  const Case c = load_case(rigid_path);
+  const Abdomen& a = *c.insect.abdomen;
+  const Mat3 R = rot_y(8 * deg);
+  const Vec3 p = a.joint + R * a.centre;
+  const double m = c.insect.body.mass + a.mass;
+  const Vec3 d = a.mass * p / m;
+  auto shift = [](double mass, const Vec3& r) { return mass * (r.squaredNorm() * Mat3::Identity() - r * r.transpose()); };
+  const Mat3 I = c.insect.body.inertia + shift(c.insect.body.mass, d) + R * a.inertia_cg * R.transpose() + shift(a.mass, p - d);
+  const Vec3 h = c.insect.wing.hinge - d;
+  std::string one = rigid;
+  one = testing::replace(one, one.substr(one.find("[abdomen]\n"), one.find("[wing]") - one.find("[abdomen]\n")), "");
+  one = testing::replace(one, "mass_kg = 0.654e-3", fmt::format("mass_kg = {:.17g}", m));
+  one = testing::replace(one, "height_m = 0.010\n",
+                         fmt::format("height_m = 0.010\ninertia_kg_m2 = {{ xx = {:.17g}, yy = {:.17g}, zz = {:.17g}, xz = {:.17g} }}\n",
+                                     I(0, 0), I(1, 1), I(2, 2), -I(0, 2)));
+  one = testing::replace(one, "hinge_m = [-0.008286, 0.0050, -0.004833]",
+                         fmt::format("hinge_m = [{:.17g}, {:.17g}, {:.17g}]", h.x(), h.y(), h.z()));
+  const fs::path dr = out_dir("rigid_abdomen"), d1 = out_dir("combined_body");
+  ASSERT_EQ(flapstab("analyze " + rigid_path + " -q -o " + dr.string()).status, 0);
+  ASSERT_EQ(flapstab("analyze " + testing::write_temp("combined_body_hawkmoth.toml", one) + " -q -o " + d1.string()).status, 0);
+  const nlohmann::json jr = json_of(dr / "results.json"), j1 = json_of(d1 / "results.json");
+  const double trim = largest_difference(jr["trim"]["parameters"], j1["trim"]["parameters"]);
+  const double der = largest_difference(jr["derivatives"]["nondimensional"], j1["derivatives"]["nondimensional"]);
+  double eig = 0;
+  for (std::size_t i = 0; i < j1["stability"]["6dof"]["modes"].size(); ++i)
+    eig = std::max(eig, largest_difference(jr["stability"]["6dof"]["modes"][i]["eigenvalue_nd"],
+                                           j1["stability"]["6dof"]["modes"][i]["eigenvalue_nd"]));
+  const double floq = largest_difference(jr["floquet"]["exponents_nd"], j1["floquet"]["exponents_nd"]);
+  std::printf("    rigid abdomen vs combined body: trim %.3g, derivatives %.3g, eigenvalues %.3g, Floquet exponents %.3g\n",
+              trim, der, eig, floq);
+  EXPECT_LT(trim, 1e-11);
+  EXPECT_LT(der, 1e-11);
+  EXPECT_LT(eig, 1e-11);
+  EXPECT_LT(floq, 1e-9);
+  // And the oscillation does change the result (the comparison is not vacuous).
+  EXPECT_GT(largest_difference(osc["floquet"]["exponents_nd"], jr["floquet"]["exponents_nd"]), 1e-6);
+}
+
+// `flapstab COMMAND CASE -q -o DIR` refuses the case: exit 2, a message naming `key`, no DIR.
+void expect_refused(const std::string& command, const std::string& case_path, const std::string& key) {
+  const fs::path dir = out_dir(command + "_" + fs::path(case_path).stem().string() + "_refused");
+  const CliResult r = flapstab(command + " " + case_path + " -q -o " + dir.string());
+  EXPECT_EQ(r.status, 2) << command << ": " << r.err;
+  EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir)) << command;
+}
+
+TEST(Examples, CfdRefusesTheAbdomen) {
+  // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything.
+  expect_refused("cfd", source + "/data/examples/abdomen_hawkmoth.toml", "abdomen");
+}
+
+TEST(Examples, TranslationOnlyModelTrimsAndHasThreeExponents) {
+  // flapstab floquet on [body_motion]: the translation-only cyclic trim converges through its two parameters and the
+  // Floquet analysis is of [u, v, w].
+  const std::string example = source + "/data/examples/translation_only_hawkmoth.toml";
+  const fs::path dir = out_dir("translation_only");
+  const CliResult r = flapstab("floquet " + example + " -q -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = json_of(dir / "floquet.json");
+  EXPECT_EQ(j["model"], "translation-only");
+  EXPECT_TRUE(j["cyclic_trim"]["converged"].get<bool>());
+  EXPECT_LT(double(j["cyclic_trim"]["residual"]), 1e-10);
+  EXPECT_EQ(j["cyclic_trim"]["parameters"].size(), 2u);
+  EXPECT_EQ(j["state_order"], nlohmann::json({"u", "v", "w"}));
+  EXPECT_EQ(j["exponents_nd"].size(), 3u);
+  // The other commands refuse the case; so does the CFD model.
+  for (const char* command : {"analyze", "trim-hover", "derivatives", "fly", "cfd"})
+    expect_refused(command, example, "body_motion");
+  expect_refused("floquet", testing::write_temp("translation_only_cfd.toml",
+                                                edited("data/examples/translation_only_hawkmoth.toml",
+                                                       {{"model = \"quasi-steady\"", "model = \"cfd\""}})),
+                 "aero.model");
 }
 
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {

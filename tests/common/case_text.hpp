@@ -85,4 +85,17 @@ inline std::string replace(std::string s, const std::string& from, const std::st
   return s.replace(i, from.size(), to);
 }
 
+// The valid case with Berman & Wang (2007, J Fluid Mech 582:153) angle forms instead of Fourier series.
+inline std::string berman_wang_case_text() {
+  std::string t = valid_case_text();
+  t = replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
+              "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\n"
+              "phase_deg = 180.0\n");
+  t = replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
+              "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\n"
+              "shape_c = 2.4\n[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 4.0\n"
+              "harmonic = 2\n");
+  return t;
+}
+
 }  // namespace flapstab::testing

@@ -14,6 +14,25 @@ using testing::replace;
 using testing::valid_case_text;
 using testing::write_temp;
 
+// Each (text, key): the text must fail to load with an InputError naming the file and the key, and say what was
+// expected.
+void expect_bad_texts(const std::vector<std::pair<std::string, std::string>>& cases, const std::string& label) {
+  int i = 0;
+  for (const auto& [text, key] : cases) {
+    const std::string path = testing::write_temp(label + std::to_string(i++) + ".toml", text);
+    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
+    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
+  }
+}
+
+// The same for each (from, to, key): base with `from` replaced by `to`.
+void expect_bad_edits(const std::string& base, const std::vector<std::array<std::string, 3>>& edits,
+                      const std::string& label) {
+  std::vector<std::pair<std::string, std::string>> cases;
+  for (const auto& [from, to, key] : edits) cases.emplace_back(testing::replace(base, from, to), key);
+  expect_bad_texts(cases, label);
+}
+
 TEST(CaseFile, ValidCaseLoads) {
   const Case c = load_case(write_temp("ok.toml", valid_case_text()));
   EXPECT_EQ(c.insect.name, "test-moth");
@@ -111,18 +130,6 @@ TEST(CaseFile, AbsurdValuesArePrintedShortInMessages) {
 namespace flapstab {
 namespace {
 
-// The valid case with Berman & Wang (2007, J Fluid Mech 582:153) angle forms instead of Fourier series.
-std::string berman_wang_case_text() {
-  std::string t = testing::valid_case_text();
-  t = testing::replace(t, "[kinematics.stroke]\nmean_deg = 0.0\ncos_deg = [-60.0]\nsin_deg = [0.0]\n",
-                       "[kinematics.stroke]\ntype = \"berman-wang\"\namplitude_deg = 60.0\nshape_k = 0.7\n"
-                       "phase_deg = 180.0\n");
-  t = testing::replace(t, "[kinematics.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\nsin_deg = [-55.0]\n",
-                       "[kinematics.pitch]\ntype = \"berman-wang\"\nmean_deg = 90.0\namplitude_deg = -55.0\n"
-                       "shape_c = 2.4\n[kinematics.deviation]\ntype = \"berman-wang\"\namplitude_deg = 4.0\n"
-                       "harmonic = 2\n");
-  return t;
-}
 
 TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
   const std::string poly = "planform = \"polynomial\"\nchord_coefficients = [1.0, -0.5]";
@@ -132,27 +139,19 @@ TEST(CaseFile, PolynomialPlanformIsNormalisedAndChecked) {
   ASSERT_EQ(c.insect.wing.poly.size(), 2u);
   EXPECT_NEAR(c.insect.wing.poly[0], 4.0 / 3.0, 1e-15);
   EXPECT_NEAR(c.insect.wing.poly[1], -2.0 / 3.0, 1e-15);
-  const std::vector<std::array<const char*, 3>> bad = {
+  const std::string base = testing::replace(testing::valid_case_text(), "planform = \"elliptic\"", poly);
+  expect_bad_edits(base, {
       // 0.2 - x + x^2 dips to -0.05 at x = 1/2 although its area is positive
       {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [0.2, -1.0, 1.0]", "wing.chord_coefficients"},
       {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = [1.0, -3.0]", "wing.chord_coefficients"},
       {"chord_coefficients = [1.0, -0.5]", "chord_coefficients = []", "wing.chord_coefficients"},
       {"\nchord_coefficients = [1.0, -0.5]", "", "wing.chord_coefficients"},
       {"planform = \"polynomial\"", "planform = \"elliptic\"", "wing.chord_coefficients"},
-  };
-  int i = 0;
-  for (const auto& [from, to, key] : bad) {
-    const std::string path = testing::write_temp("poly_bad" + std::to_string(i++) + ".toml",
-                                                 testing::replace(testing::replace(testing::valid_case_text(),
-                                                                                   "planform = \"elliptic\"", poly),
-                                                                  from, to));
-    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
-    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
-  }
+  }, "poly_bad");
 }
 
 TEST(CaseFile, BermanWangAnglesLoad) {
-  const Case c = load_case(testing::write_temp("bw.toml", berman_wang_case_text()));
+  const Case c = load_case(testing::write_temp("bw.toml", testing::berman_wang_case_text()));
   const BermanWangSeries* s = c.kinematics.right.stroke.berman_wang();
   const BermanWangSeries* p = c.kinematics.right.pitch.berman_wang();
   const BermanWangSeries* d = c.kinematics.right.deviation.berman_wang();
@@ -169,8 +168,8 @@ TEST(CaseFile, BermanWangAnglesLoad) {
 }
 
 TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
-  const std::string base = berman_wang_case_text();
-  const std::vector<std::array<const char*, 3>> bad = {
+  const std::string base = testing::berman_wang_case_text();
+  expect_bad_edits(base, {
       {"shape_k = 0.7", "shape_k = 1.0", "kinematics.stroke.shape_k"},
       {"shape_k = 0.7", "shape_k = 0.0", "kinematics.stroke.shape_k"},
       {"shape_k = 0.7\n", "", "kinematics.stroke.shape_k"},
@@ -181,13 +180,7 @@ TEST(CaseFile, BermanWangBadInputNamesFileAndKey) {
       {"harmonic = 2", "harmonic = 0", "kinematics.deviation.harmonic"},
       {"shape_k = 0.7", "shape_c = 0.7", "kinematics.stroke.shape_k"},  // the pitch's key on the stroke
       {"harmonic = 2", "harmonic = 2\nshape_k = 0.5", "kinematics.deviation.shape_k"},
-  };
-  int i = 0;
-  for (const auto& [from, to, key] : bad) {
-    const std::string path = testing::write_temp("bw_bad" + std::to_string(i++) + ".toml", testing::replace(base, from, to));
-    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
-    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
-  }
+  }, "bw_bad");
 }
 
 }  // namespace
@@ -209,10 +202,7 @@ TEST(CaseFile, QuasiSteadyConstantsBadInputNamesFileAndKey) {
                                           "coefficients = \"berman-wang\"\nblade_elements = 40\n"
                                           "[aero.quasi_steady.berman-wang]\nc_t = 1.678\nc_d_0 = 0.07\nc_d_90 = 3.06\n");
   EXPECT_NO_THROW(load_case(testing::write_temp("qs_bw_ok.toml", bw)));
-  struct Bad {
-    std::string text, key;
-  };
-  const std::vector<Bad> bad = {
+  expect_bad_texts({
       {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 30.0, 60.0, 80.0]"),
        "aero.quasi_steady.table.alpha_deg"},
       {testing::replace(table, "alpha_deg = [0.0, 30.0, 60.0, 90.0]", "alpha_deg = [0.0, 60.0, 30.0, 90.0]"),
@@ -231,13 +221,7 @@ TEST(CaseFile, QuasiSteadyConstantsBadInputNamesFileAndKey) {
        "aero.quasi_steady.centre_of_pressure_chord_fraction"},
       {testing::replace(base, "blade_elements = 40\n", "blade_elements = 40\nrotational_coefficient = 50.0\n"),
        "aero.quasi_steady.rotational_coefficient"},
-  };
-  int i = 0;
-  for (const auto& b : bad) {
-    const std::string path = testing::write_temp("qs_bad" + std::to_string(i++) + ".toml", b.text);
-    const std::string what = testing::expect_input_error([&] { load_case(path); }, b.key, path);
-    EXPECT_NE(what.find("expected"), std::string::npos) << b.key << ": " << what;
-  }
+  }, "qs_bad");
 }
 
 }  // namespace
@@ -273,7 +257,7 @@ TEST(CaseFile, FourWingsLoad) {
 
 TEST(CaseFile, FourWingsBadInputNamesFileAndKey) {
   const std::string base = four_wing_case_text();
-  const std::vector<std::array<std::string, 3>> bad = {
+  expect_bad_edits(base, {
       // a hind pair with no wing (planform, hinge, mass) or no kinematics
       {"[hind_wing]\nlength_m = 0.045\nmean_chord_m = 0.015\nplanform = \"rectangular\"\nmass_kg = 30e-6\n"
        "hinge_m = [-0.004, 0.004, -0.003]\n",
@@ -286,13 +270,7 @@ TEST(CaseFile, FourWingsBadInputNamesFileAndKey) {
       {"[kinematics.hind.stroke]\ncos_deg = [-50.0]\n", "", "kinematics.hind.stroke"},
       {"phase_deg = 90.0", "phase = 90.0", "kinematics.hind.phase"},
       {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"},
-  };
-  int i = 0;
-  for (const auto& [from, to, key] : bad) {
-    const std::string path = testing::write_temp("four_bad" + std::to_string(i++) + ".toml", testing::replace(base, from, to));
-    const std::string what = testing::expect_input_error([&] { load_case(path); }, key, path);
-    EXPECT_NE(what.find("expected"), std::string::npos) << key << ": " << what;
-  }
+  }, "four_bad");
 }
 
 }  // namespace
@@ -313,6 +291,93 @@ TEST(CaseFile, StrokePlaneReference) {
       "spr_bad.toml", testing::replace(testing::valid_case_text(), "stroke_plane_deg = 0.0",
                                        "stroke_plane_deg = 0.0\nstroke_plane_reference = \"thorax\""));
   testing::expect_input_error([&] { load_case(path); }, "kinematics.stroke_plane_reference", path);
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// The valid case with an abdomen oscillating about a bent mean.
+std::string abdomen_case_text() {
+  return testing::replace(testing::valid_case_text(), "[kinematics]\n",
+                          "[abdomen]\nmass_kg = 0.8e-3\njoint_m = [-0.006, 0.0, 0.001]\n"
+                          "mass_centre_m = [-0.012, 0.0, 0.002]\n"
+                          "inertia_joint_kg_m2 = { xx = 1.2e-8, yy = 1.6e-7, zz = 1.55e-7, xz = -1.7e-8 }\n"
+                          "[abdomen.pitch]\nmean_deg = -10.0\ncos_deg = [15.0]\nsin_deg = [5.0]\n\n[kinematics]\n");
+}
+
+TEST(CaseFile, AbdomenLoads) {
+  const Case c = load_case(testing::write_temp("abdomen.toml", abdomen_case_text()));
+  ASSERT_TRUE(c.insect.abdomen.has_value());
+  const Abdomen& a = *c.insect.abdomen;
+  EXPECT_NEAR(c.insect.total_mass(), 1.554e-3 + 2 * 47e-6 + 0.8e-3, 1e-15);
+  EXPECT_EQ(a.joint, Vec3(-0.006, 0.0, 0.001));
+  // The inertia about the joint is held about the CoM: Iyy_cg = Iyy_joint - m |c|^2, Ixz by the parallel-axis term.
+  EXPECT_NEAR(a.inertia_cg(1, 1), 1.6e-7 - 0.8e-3 * (0.012 * 0.012 + 0.002 * 0.002), 1e-22);
+  EXPECT_NEAR(a.inertia_cg(0, 2), 1.7e-8 + 0.8e-3 * (-0.012) * 0.002, 1e-22);
+  EXPECT_NEAR(a.pitch.eval(0).f / deg, 5.0, 1e-12);
+  // Without [abdomen.pitch] the abdomen is rigid, straight.
+  const Case r = load_case(testing::write_temp(
+      "abdomen_rigid.toml", testing::replace(abdomen_case_text(), "[abdomen.pitch]\nmean_deg = -10.0\ncos_deg = [15.0]\nsin_deg = [5.0]\n", "")));
+  EXPECT_EQ(r.insect.abdomen->pitch.eval(0.3).f, 0.0);
+}
+
+TEST(CaseFile, AbdomenBadInputNamesFileAndKey) {
+  expect_bad_edits(abdomen_case_text(),
+                   {{"joint_m = [-0.006, 0.0, 0.001]\n", "", "abdomen.joint_m"},
+                    {"joint_m = [-0.006, 0.0, 0.001]", "joint_m = [-0.006, 0.001]", "abdomen.joint_m"},
+                    {"joint_m = [-0.006, 0.0, 0.001]", "joint_m = [-0.006, 0.002, 0.001]", "abdomen.joint_m"},
+                    {"mass_centre_m = [-0.012, 0.0, 0.002]\n", "", "abdomen.mass_centre_m"},
+                    {"mass_kg = 0.8e-3", "mass_kg = -0.8e-3", "abdomen.mass_kg"},
+                    {"mass_kg = 0.8e-3\n", "", "abdomen.mass_kg"},
+                    {"yy = 1.6e-7", "yy = -1.6e-7", "abdomen.inertia_joint_kg_m2.yy"},
+                    {"yy = 1.6e-7", "yy = 1.0e-7", "abdomen.inertia_joint_kg_m2"},  // below m |c|^2
+                    {"inertia_joint_kg_m2 = { xx = 1.2e-8, yy = 1.6e-7, zz = 1.55e-7, xz = -1.7e-8 }\n", "",
+                     "abdomen.inertia_joint_kg_m2"},
+                    {"cos_deg = [15.0]", "cos_deg = [15.0]\nrate = 1.0", "abdomen.pitch.rate"},
+                    {"[abdomen]\n", "[abdomen]\nlength_m = 0.02\n", "abdomen.length_m"},
+                    {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"}},
+                   "abdomen_bad");
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+std::string body_motion_case_text() {
+  return testing::valid_case_text() +
+         "\n[body_motion]\nmodel = \"translation-only\"\ntrim_parameters = [\"stroke_amplitude_deg\", \"pitch_mean_deg\"]\n"
+         "[body_motion.pitch]\nsin_deg = [3.0]\n[body_motion.roll]\ncos_deg = [1.0]\n";
+}
+
+TEST(CaseFile, BodyMotionLoads) {
+  const Case c = load_case(testing::write_temp("body_motion.toml", body_motion_case_text()));
+  ASSERT_TRUE(c.body_motion.present);
+  EXPECT_EQ(c.body_motion.trim_parameters, (std::vector<std::string>{"stroke_amplitude_deg", "pitch_mean_deg"}));
+  EXPECT_NEAR(c.body_motion.pitch.eval(0.25).f / deg, 3.0, 1e-12);
+  EXPECT_NEAR(c.body_motion.roll.eval(0.0).f / deg, 1.0, 1e-12);
+  EXPECT_EQ(c.body_motion.yaw.eval(0.3).f, 0.0);
+  EXPECT_FALSE(load_case(testing::write_temp("no_body_motion.toml", testing::valid_case_text())).body_motion.present);
+}
+
+TEST(CaseFile, BodyMotionBadInputNamesFileAndKey) {
+  expect_bad_edits(body_motion_case_text(),
+                   {{"model = \"translation-only\"\ntrim", "model = \"free\"\ntrim", "body_motion.model"},
+                    {"model = \"translation-only\"\ntrim", "trim", "body_motion.model"},
+                    {"trim_parameters = [\"stroke_amplitude_deg\", \"pitch_mean_deg\"]\n", "", "body_motion.trim_parameters"},
+                    {"\"pitch_mean_deg\"]", "\"frequency_hz\"]", "body_motion.trim_parameters"},
+                    {"\"pitch_mean_deg\"]", "\"stroke_amplitude_deg\"]", "body_motion.trim_parameters"},
+                    {"trim_parameters = [\"stroke_amplitude_deg\", \"pitch_mean_deg\"]", "trim_parameters = []",
+                     "body_motion.trim_parameters"},
+                    {"[body_motion.pitch]\nsin_deg = [3.0]", "[body_motion.pitch]\nsin_deg = [3.0]\nrate = 6.3",
+                     "body_motion.pitch.rate"},
+                    {"[body_motion.roll]", "[body_motion.rol]", "body_motion.rol"},
+                    {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"}},
+                   "body_motion_bad");
 }
 
 }  // namespace

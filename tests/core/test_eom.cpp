@@ -22,6 +22,34 @@ BodyStateVector rk4(const Configuration& cfg, BodyStateVector x, double t0, doub
   return x;
 }
 
+// The start of the tests below: translating, spinning and tilted, so that every inertial term acts.
+BodyStateVector moving_state() {
+  BodyStateVector x = BodyStateVector::Zero();
+  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
+  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
+  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  return x;
+}
+
+// Two wingbeats from moving_state() without gravity or loads (RK4, 4000 steps per cycle): the change of the system's
+// linear and angular momentum (inertial axes) and the end state.
+struct MomentumChange {
+  Vec3 dP, dH;
+  BodyStateVector x0, x1;
+};
+MomentumChange momentum_change(const Configuration& cfg) {
+  MomentumChange m;
+  const double T = cfg.kinematics().period();
+  m.x0 = moving_state();
+  Vec3 P0, H0, P1, H1;
+  system_momenta(cfg, 0.0, m.x0, P0, H0);
+  m.x1 = rk4(cfg, m.x0, 0.0, 2 * T, 8000, 0.0);
+  system_momenta(cfg, 2 * T, m.x1, P1, H1);
+  m.dP = P1 - P0;
+  m.dH = H1 - H0;
+  return m;
+}
+
 // Without gravity and aerodynamics, the wings' flapping moves the body but the total linear and
 // angular momentum stay constant (Newton's laws for the closed system). Asymmetric kinematics and a
 // tilted, spinning initial state exercise every inertial term. RK4 error at 4000 steps/cycle ~1e-12.
@@ -30,20 +58,12 @@ TEST(Eom, FlappingConservesMomentumWithoutExternalLoads) {
   ins.wing.mass *= 3;  // heavier wings: larger inertial coupling
   Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
   k.left = testing::harmonic_wing(100, 30, 10, 5);
-  const Configuration cfg(ins, k);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
-  Vec3 P0, H0, P1, H1;
-  system_momenta(cfg, 0.0, x, P0, H0);
-  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
-  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const MomentumChange m = momentum_change(Configuration(ins, k));
   const double p_scale = ins.wing.mass * 2 * pi * 26 * ins.wing.length;  // wing momentum scale
-  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
-  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
   // The body did move (the test is not vacuous).
-  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
 }
 
 TEST(Eom, FreeFallAcceleratesAtG) {
@@ -115,18 +135,11 @@ TEST(Eom, FourWingsConserveMomentumWithoutExternalLoads) {
   k.hind_left = testing::harmonic_wing(90, 40, -5, 3);
   k.hind_phase = 0.3;
   const Configuration cfg(ins, k);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
-  Vec3 P0, H0, P1, H1;
-  system_momenta(cfg, 0.0, x, P0, H0);
-  const BodyStateVector x1 = rk4(cfg, x, 0.0, 2 * k.period(), 8000, 0.0);
-  system_momenta(cfg, 2 * k.period(), x1, P1, H1);
+  const MomentumChange m = momentum_change(cfg);
   const double p_scale = hind.mass * 2 * pi * 26 * ins.wing.length;
-  EXPECT_LT((P1 - P0).norm(), 1e-9 * p_scale);
-  EXPECT_LT((H1 - H0).norm(), 1e-9 * p_scale * ins.wing.length);
-  EXPECT_GT((x1.segment<3>(6) - x.segment<3>(6)).norm(), 1e-3);
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
   EXPECT_NEAR(cfg.mass_state(0.1).total_mass(), ins.total_mass(), 1e-18);
 }
 
@@ -143,10 +156,7 @@ TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
   k4.hind_left = k4.left;
   const Configuration c4(four, k4), c2(two, k2);
   EXPECT_LT((c4.reference_point() - c2.reference_point()).norm(), 1e-15);
-  BodyStateVector x = BodyStateVector::Zero();
-  x.segment<3>(3) = Vec3(0.1, -0.05, 0.02);
-  x.segment<3>(6) = Vec3(1.0, -2.0, 0.5);
-  x.segment<3>(9) = Vec3(0.1, 0.2, -0.3);
+  const BodyStateVector x = moving_state();
   Wrench w;
   w.force = Vec3(1e-3, 2e-4, -1.5e-2);
   w.moment = Vec3(1e-5, -3e-5, 2e-6);
@@ -154,6 +164,86 @@ TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
     const BodyStateVector d4 = body_state_derivative(c4, t, x, w), d2 = body_state_derivative(c2, t, x, w);
     EXPECT_LT((d4 - d2).norm(), 1e-12 * d2.norm()) << t;
   }
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// An abdomen of about half the body mass, hinged aft of the thorax, with its CoM below its long axis and a product
+// of inertia: every term of a part turning about the joint.
+Abdomen test_abdomen() {
+  Abdomen a;
+  a.mass = 0.8e-3;
+  a.joint = Vec3(-0.006, 0, 0.001);
+  a.centre = Vec3(-0.012, 0, 0.002);
+  Mat3 ij;
+  ij << 1.2e-8, 0, 1.7e-8, 0, 1.6e-7, 0, 1.7e-8, 0, 1.55e-7;  // about the joint (Ixz = -1.7e-8)
+  a.inertia_cg = ij - a.mass * (a.centre.squaredNorm() * Mat3::Identity() - a.centre * a.centre.transpose());
+  return a;
+}
+
+// Abdomen: a second body segment whose relative pitch (two harmonics about a bent mean) is prescribed. Without loads
+// the total momentum of thorax + abdomen + wings is conserved (RK4 at 4000 steps per cycle, 1e-9 of the wing
+// momentum scale, as for the wings alone); the abdomen's own momentum scale is of the same order.
+TEST(Eom, AbdomenConservesMomentumWithoutExternalLoads) {
+  Insect ins = testing::test_insect();
+  ins.abdomen = test_abdomen();
+  ins.abdomen->pitch = FourierSeries{-10 * deg, {15 * deg, 3 * deg}, {5 * deg, -2 * deg}};
+  Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  k.left = testing::harmonic_wing(100, 30, 10, 5);
+  const Configuration cfg(ins, k);
+  EXPECT_NEAR(cfg.mass_state(0.01).total_mass(), ins.total_mass(), 1e-18);
+  const MomentumChange m = momentum_change(cfg);
+  const double p_scale = ins.wing.mass * 2 * pi * 26 * ins.wing.length;
+  std::printf("    abdomen: |dP| = %.3g of the wing momentum scale, |dH| = %.3g\n", m.dP.norm() / p_scale,
+              m.dH.norm() / (p_scale * ins.wing.length));
+  EXPECT_LT(m.dP.norm(), 1e-9 * p_scale);
+  EXPECT_LT(m.dH.norm(), 1e-9 * p_scale * ins.wing.length);
+  EXPECT_GT((m.x1.segment<3>(6) - m.x0.segment<3>(6)).norm(), 1e-3);
+  // The abdomen's motion matters: the same run with a rigid abdomen ends elsewhere.
+  Insect rigid = ins;
+  rigid.abdomen->pitch = FourierSeries{-10 * deg, {}, {}};
+  EXPECT_GT((momentum_change(Configuration(rigid, k)).x1 - m.x1).norm(), 1e-3 * m.x1.norm());
+}
+
+// A rigid abdomen (constant relative pitch, bent by 12 deg) is one body with the combined mass properties: mass
+// m_t + m_a, CoM d = m_a p / m (p the abdomen CoM in A), inertia by the parallel-axis theorem, the hinges moved by
+// -d. The reference point, the mass state's aggregates and the equations of motion agree to round-off (1e-12).
+TEST(Eom, RigidAbdomenEqualsCombinedBody) {
+  Insect two = testing::test_insect();
+  two.abdomen = test_abdomen();
+  two.abdomen->pitch = FourierSeries{12 * deg, {}, {}};
+  const Abdomen& a = *two.abdomen;
+  const Mat3 R = rot_y(a.pitch.eval(0).f);
+  const Vec3 p = a.joint + R * a.centre;
+  Insect one = two;
+  one.abdomen.reset();
+  one.body.mass = two.body.mass + a.mass;
+  const Vec3 d = a.mass * p / one.body.mass;
+  auto shift = [](double m, const Vec3& r) { return m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose()); };
+  one.body.inertia = two.body.inertia + shift(two.body.mass, d) + R * a.inertia_cg * R.transpose() + shift(a.mass, p - d);
+  one.wing.hinge -= d;
+  const Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  const Configuration c2(two, k), c1(one, k);
+  // O in S from each body's CoM: they differ by d (in S axes).
+  EXPECT_LT((c2.reference_point() - c1.reference_point() - c1.anatomical_to_stability() * d).norm(), 1e-15);
+  const BodyStateVector x = moving_state();
+  Wrench w;
+  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
+  w.moment = Vec3(1e-5, -3e-5, 2e-6);
+  double worst = 0;
+  for (double t : {0.0, 0.011, 0.027}) {
+    const BodyStateVector d2 = body_state_derivative(c2, t, x, w), d1 = body_state_derivative(c1, t, x, w);
+    worst = std::max(worst, (d2 - d1).norm() / d1.norm());
+    Eigen::Matrix<double, 6, 6> aj = Eigen::Matrix<double, 6, 6>::Identity() * 1e-3;
+    const auto j2 = body_state_jacobian(c2, t, x, aj), j1 = body_state_jacobian(c1, t, x, aj);
+    worst = std::max(worst, (j2 - j1).norm() / j1.norm());
+  }
+  std::printf("    rigid abdomen vs combined body: largest relative difference %.3g\n", worst);
+  EXPECT_LT(worst, 1e-12);
 }
 
 }  // namespace
