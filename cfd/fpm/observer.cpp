@@ -335,6 +335,7 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
       any = true;
     }
   if (!any) return "";
+  m.finish();
   const bool both = std::find(parts_.begin(), parts_.end(), 1) != parts_.end() &&
                     std::find(parts_.begin(), parts_.end(), 2) != parts_.end();
   // the adds ran over both wings' rows: a sum per sample = mean over rows x wings

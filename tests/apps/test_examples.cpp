@@ -255,6 +255,8 @@ void expect_refused(const std::string& command, const std::string& case_path, co
 TEST(Examples, CfdRefusesTheAbdomen) {
   // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything.
   expect_refused("cfd", source + "/data/examples/abdomen_hawkmoth.toml", "abdomen");
+  // Nor does it hold a hind pair: a four-winged quasi-steady case is refused, not run with the fore pair only.
+  expect_refused("cfd", source + "/data/examples/four_wing_hawkmoth.toml", "hind_wing");
 }
 
 TEST(Examples, TranslationOnlyModelTrimsAndHasThreeExponents) {
