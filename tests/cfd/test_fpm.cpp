@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "cfd/fpm/partition.hpp"
+#include "common/oscillating_sphere.hpp"
 #include "common/sphere_flow.hpp"
 #include "cfd/navier_stokes/geometry.hpp"
 #include "cfd/navier_stokes/immersed.hpp"
@@ -250,6 +251,51 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
   // to 4 digits. What is missing is the band of faces next to the surface where direct forcing replaces the momentum
   // equation: there the solver's pressure gradient balances the forcing, not the flow's acceleration, and the
   // direct pressure force carries that forcing. Asserted: the gap falls with the grid (the band narrows).
+  EXPECT_LT(gap[1], gap[0]);
+}
+
+// Closure on an unsteady flow: the sphere oscillating in fluid at rest (the immersed boundary's Stokes-force case,
+// tests/common/oscillating_sphere.hpp: R/delta = 2, Re 0.8), partitioned at 8 phases of its third period on h = D/8
+// and D/12. The kinematic part is the added-mass force -(rho V / 2) a of the sphere (the box of 8 R adds ~0.6 %).
+// Its worst error over the phases, relative to the force's amplitude, was measured at 3.9 % (D/8) and 1.6 % (D/12):
+// the cut cells change as the sphere crosses 0.4 cells, more on the coarser grid (the static sphere's added mass at
+// D/12 is -0.24 %). Asserted: below 2 % on D/12 and falling with the grid. Closure: the rms over the phases of
+// (sum - direct cut-cell pressure force), relative to the direct force's peak, measured 28 % and 24 % (the viscous
+// part dominates at Re 0.8; the deficit is the forcing band's, as for the steady sphere), asserted to fall.
+TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
+  using Osc = testing::OscillatingSphere;
+  const double V = 4.0 / 3.0 * pi * Osc::R * Osc::R * Osc::R, am = 0.5 * V, amp = am * Osc::u0 * Osc::omega;
+  double gap[2], kin[2];
+  int n = 0;
+  for (double h : {1.0 / 8, 1.0 / 12}) {
+    Osc flow(h, true, 12);
+    ForcePartition f(flow.grid, {.components = {0}});
+    const int N = flow.per_period, sample_every = N / 8;
+    double sum2 = 0, peak = 0, worst_kin = 0;
+    for (int k = 1; k <= 3 * N; ++k) {
+      if (k > 2 * N && k % sample_every == 0) f.record_boundary(flow.solver);
+      flow.solver.step();
+      if (k <= 2 * N || k % sample_every != 0) continue;
+      const std::vector<PartState> states{Osc::state(flow.solver.time())};
+      f.update(flow.ib, states);
+      const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
+      const double a = states[0].acceleration.x();
+      worst_kin = std::max(worst_kin, std::abs(P.kinematic[0] + am * a) / amp);
+      sum2 += std::pow(P.sum()[0] - P.pressure[0], 2);
+      peak = std::max(peak, std::abs(P.pressure[0]));
+      fmt::print("  h = D/{:.0f}, t/T = {:.3f}: kinematic {:+.5f} (added mass {:+.5f}), vortex {:+.5f}, viscous {:+.5f}, "
+                 "outer {:+.5f}; sum {:+.5f}, direct {:+.5f}\n",
+                 1 / h, flow.solver.time(), P.kinematic[0] / amp, -am * a / amp, P.vortex[0] / amp, P.viscous[0] / amp,
+                 P.outer[0] / amp, P.sum()[0] / amp, P.pressure[0] / amp);
+    }
+    kin[n] = worst_kin;
+    gap[n++] = std::sqrt(sum2 / 8) / peak;
+    fmt::print("oscillating sphere, h = D/{:.0f}: kinematic within {:.4f} of the added-mass force's amplitude; closure "
+               "rms {:.4f} of the direct force's peak\n",
+               1 / h, worst_kin, gap[n - 1]);
+  }
+  EXPECT_LT(kin[1], 0.02);
+  EXPECT_LT(kin[1], kin[0]);
   EXPECT_LT(gap[1], gap[0]);
 }
 

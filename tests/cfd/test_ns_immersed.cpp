@@ -25,6 +25,7 @@
 #include <stdexcept>
 #include "cfd/navier_stokes/immersed.hpp"
 #include "cfd/navier_stokes/mesh_query.hpp"
+#include "common/oscillating_sphere.hpp"
 #include "common/sphere_flow.hpp"
 
 namespace {
@@ -382,28 +383,14 @@ void fit_harmonics(const std::vector<double>& ts, const std::vector<double>& fs,
 // Returns {surface integral (loads), momentum exchange (exchange_loads)}.
 std::array<Oscillation, 2> run_oscillating(double h, int periods, bool moving, int mesh_n) {
   const auto t0 = std::chrono::steady_clock::now();
-  const double R = 0.5, omega = 2 * pi, delta = R / 2, nu = delta * delta * omega / 2, A = 0.05 * R, u0 = A * omega;
+  using Case = flapstab::testing::OscillatingSphere;
+  const double R = Case::R, omega = Case::omega, delta = Case::delta, nu = Case::nu, u0 = Case::u0;
   const double V = 4.0 / 3.0 * pi * R * R * R;
-  const StretchedAxis ax{-4, 4, -0.8, 0.8, h, 1.1, 8};
-  const Grid g(Axis::stretched(ax, false), Axis::stretched(ax, false), Axis::stretched(ax, false));
-  Boundaries bc = Boundaries::all(BC::velocity);
-  if (!moving)
-    for (auto& f : bc.face) f.velocity = [=](double t) { return Vec3(-u0 * std::sin(omega * t), 0, 0); };
-  SolverOptions opt;
-  opt.nu = nu;
-  const int per_period = int(std::ceil(1.0 / (0.5 / max_viscous_rate(g, nu)) / 8)) * 8;
-  opt.dt = 1.0 / per_period;
-  Solver s(g, bc, opt);
-  s.initialise([](double, double, double) { return Vec3::Zero(); });
-  ImmersedBoundary ib(g);
-  if (moving)
-    ib.add_part(sphere_mesh(R, mesh_n), [=](double t) {
-      const Vec3 c(A * (1 - std::cos(omega * t)), 0, 0);
-      return PartState{RigidTransform{Mat3::Identity(), c}, RigidVelocity{c, Vec3(u0 * std::sin(omega * t), 0, 0), Vec3::Zero()}};
-    });
-  else
-    ib.add_part(sphere_mesh(R, mesh_n), fixed_part());
-  ib.attach(s);
+  Case flow(h, moving, mesh_n);
+  const Grid& g = flow.grid;
+  const int per_period = flow.per_period;
+  Solver& s = flow.solver;
+  ImmersedBoundary& ib = flow.ib;
   std::vector<double> ts, fs, fe;
   for (int n = 0; n < periods * per_period; ++n) {
     s.step();
