@@ -351,6 +351,12 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
       "force = {:.1f} % of the total\n",
       from_s, to_s, L, lift(m.sp), lift(m.sv), pc(m.kinematic), pc(m.kinematic - m.centripetal), pc(m.centripetal),
       pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(m.kinematic + m.vortex + m.viscous + m.outer - m.pressure));
+  const double closure = m.kinematic + m.vortex + m.viscous + m.outer - m.pressure;
+  if (m.pressure != 0 && std::abs(closure) > 0.1 * std::abs(m.pressure))
+    s += fmt::format("    warning: the parts sum to {:.0f} % of the cut-cell pressure lift: on this grid the partition does "
+                     "not close, so read the vortex-induced and viscous shares as what the velocity field implies, not as "
+                     "a split of the run's lift (docs/theory/force-partitioning.md, \"Closure\")\n",
+                     100 * (closure + m.pressure) / m.pressure);
   if (unconverged_ > 0)
     s += fmt::format("    warning: {} potential solves did not converge (tolerance {:g}); their samples are unreliable\n",
                      unconverged_, settings_.tolerance);
