@@ -61,7 +61,7 @@ void plot_force_history(const std::string& dir, const ns::CfdResult& r, bool qui
 }
 
 // fpm.svg: the wings' lift (-F_z, both wings) by mechanism over t/T, / weight: the run's pressure lift, the cut-cell
-// pressure lift the partition sums to, its kinematic part (added mass and centripetal acceleration reaction apart),
+// pressure lift the partition should sum to and its actual sum, its kinematic part (added mass and centripetal acceleration reaction apart),
 // vortex-induced part (and its leading-edge regions), viscous and outer-boundary parts.
 void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool quiet) {
   if (r.fpm_rows.empty() || r.result.weight <= 0) return;
@@ -71,6 +71,7 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
     if (r.fpm_regions[i].find("leading-edge") != std::string::npos) le.push_back(i);
   struct Sum {
     double t = 0, solver = 0, pressure = 0, added = 0, car = 0, vortex = 0, lev = 0, viscous = 0, outer = 0;
+    double sum() const { return added + car + vortex + viscous + outer; }
   };
   std::vector<Sum> samples;  // wing rows of F_z, summed per sample
   for (const auto& row : r.fpm_rows) {
@@ -83,7 +84,8 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
   }
   if (samples.empty()) return;  // F_z not partitioned or no wing
   std::vector<Series> series = {{"run's pressure lift (forces.csv)", {}, {}},
-                                {"cut-cell pressure lift (= the sum of the parts)", {}, {}},
+                                {"cut-cell pressure lift (what the parts sum to, up to the closure error)", {}, {}},
+                                {"sum of the parts", {}, {}, "lines dt 3"},
                                 {"added mass", {}, {}},
                                 {"centripetal acceleration reaction", {}, {}},
                                 {"vortex-induced", {}, {}},
@@ -91,13 +93,13 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
                                 {"viscous", {}, {}},
                                 {"outer boundary", {}, {}}};
   for (const Sum& m : samples) {
-    const double v[8] = {m.solver, m.pressure, m.added, m.car, m.vortex, m.lev, m.viscous, m.outer};
-    for (int i = 0; i < 8; ++i) {
+    const double v[9] = {m.solver, m.pressure, m.sum(), m.added, m.car, m.vortex, m.lev, m.viscous, m.outer};
+    for (int i = 0; i < 9; ++i) {
       series[std::size_t(i)].x.push_back(m.t / T);
       series[std::size_t(i)].y.push_back(v[i]);
     }
   }
-  if (le.empty()) series.erase(series.begin() + 5);
+  if (le.empty()) series.erase(series.begin() + 6);
   LinePlot p;
   p.title = "flapstab cfd: force partition of the wings' lift";
   p.xlabel = "t / T (wingbeats)";
