@@ -529,7 +529,7 @@ FpmSettings parse_fpm(Section s) {
   if (!s.present()) return f;
   f.enabled = s.boolean_or("enabled", true);
   f.samples_per_cycle = s.integer_or("samples_per_cycle", f.samples_per_cycle, 1, 100000);
-  f.components = s.strings("components", f.components, {"Fx", "Fy", "Fz", "Mx", "My", "Mz"});
+  f.components = s.strings("components", f.components, {"Fx", "Fy", "Fz", "Mx", "My", "Mz", "power"});
   f.parts = s.strings("parts", f.parts, {"body", "right", "left"});
   f.regions = s.strings("regions", f.regions, {"leading-edge", "trailing-edge", "tip"});
   f.region_size_chords = s.positive_in("region_size_chords", f.region_size_chords, 0.05, 10, "a distance in mean chords");

@@ -30,8 +30,8 @@ struct QuasiSteadySettings {
 struct FpmSettings {
   bool enabled = false;          // the table [aero.cfd.fpm] is present and its `enabled` is not false
   int samples_per_cycle = 40;    // partitions per wingbeat (at the ends of the steps that cross these phases)
-  // Load components partitioned, of "Fx" "Fy" "Fz" "Mx" "My" "Mz" (stability axes S, moments about O); one influence
-  // potential per part and component is solved at every sample.
+  // Load components partitioned, of "Fx" "Fy" "Fz" "Mx" "My" "Mz" (stability axes S, moments about O) and "power" (the
+  // part's rate of work on the air); one influence potential per part and component is solved at every sample.
   std::vector<std::string> components = {"Fx", "Fz"};
   std::vector<std::string> parts = {"body", "right", "left"};
   // Regions of the flow around each wing, in the wing's frame, over which the vortex-induced force is integrated

@@ -103,7 +103,13 @@ FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings,
   rho_ = sim.plan().rho;
   FpmOptions opt;
   opt.rtol = settings.tolerance;
-  opt.components = components_;
+  opt.components.clear();
+  for (int k : components_)
+    if (k < power_component) opt.components.push_back(k);
+  // power rows: from the power potential when "power" is asked for, else from all six components when they are
+  power_potential_ = opt.components.size() < components_.size();
+  opt.power = power_potential_;
+  power_rows_ = power_potential_ || opt.components.size() == 6;
   opt.moment_point = Vec3::Zero();  // O, the grid's origin: the moments of forces.csv
   partition_.emplace(sim.grid(), opt);
   region_names_.push_back("wake");
@@ -180,6 +186,7 @@ std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
     const PartPartition& P = parts[std::size_t(i)];
     const auto& L = loads.part[i];
     for (int k : components_) {
+      if (k == power_component) continue;  // below
       FpmRow r = row(i, k);
       r.pressure = P.pressure[k];
       r.kinematic = P.kinematic[k];
@@ -192,19 +199,22 @@ std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
       for (const Vec6& v : P.vortex_regions) r.regions.push_back(v[k]);
       out.push_back(r);
     }
-    if (components_.size() == 6) {  // the part's rate of work on the fluid by mechanism
+    if (power_rows_) {  // the part's rate of work on the fluid by mechanism
       FpmRow r = row(i, power_component);
       r.pressure = P.power_pressure;
       r.kinematic = P.power_kinematic;
       const Vec3 v0 = states[std::size_t(i)].velocity.at(Vec3::Zero()), w = states[std::size_t(i)].velocity.omega;
-      r.centripetal = -(P.centripetal.head<3>().dot(v0) + P.centripetal.tail<3>().dot(w));
+      r.centripetal = power_potential_ ? P.power_centripetal
+                                       : -(P.centripetal.head<3>().dot(v0) + P.centripetal.tail<3>().dot(w));
       r.vortex = P.power_vortex;
       r.viscous = P.power_viscous;
       r.outer = P.power_outer;
       const Vec3 Fp = L.pressure_force, Fv = L.viscous_force, Mp = L.pressure_moment, Mv = L.viscous_moment;
       r.solver_pressure = -(Fp.dot(v0) + Mp.dot(w));
       r.solver_viscous = -(Fv.dot(v0) + Mv.dot(w));
-      for (const Vec6& v : P.vortex_regions) r.regions.push_back(-(v.head<3>().dot(v0) + v.tail<3>().dot(w)));
+      if (power_potential_) r.regions = P.power_vortex_regions;
+      else
+        for (const Vec6& v : P.vortex_regions) r.regions.push_back(-(v.head<3>().dot(v0) + v.tail<3>().dot(w)));
       out.push_back(r);
     }
   }
@@ -235,9 +245,9 @@ void FpmObserver::write_fields(const ns::Simulation& sim) {
           for (int ii = 1; ii <= s.nx; ++ii) v.push_back(phi(ii, j, kk));
       const std::string tag = std::string(ns::part_names[i]) + "_" + component_name(k);
       store.push_back(std::move(v));
-      names.emplace_back("potential_" + tag, k < 3 ? "m" : "m^2");
+      names.emplace_back("potential_" + tag, k < 3 ? "m" : k < 6 ? "m^2" : "m^2/s");
       store.push_back(partition_->vortex_density(i, k));
-      names.emplace_back("vortex_force_density_" + tag, k < 3 ? "N/m^3" : "N/m^2");
+      names.emplace_back("vortex_force_density_" + tag, k < 3 ? "N/m^3" : k < 6 ? "N/m^2" : "W/m^3");
     }
   // the regions as labels (0 wake, then region_names order)
   const std::vector<ns::PartState> states = sim.part_states();
@@ -299,8 +309,10 @@ nlohmann::json FpmObserver::means(double from_s, double to_s, double period, dou
                "loads (forces.csv)";
   long samples = 0;
   nlohmann::json parts;
+  std::vector<int> listed = components_;
+  if (power_rows_ && !power_potential_) listed.push_back(power_component);
   for (int i : parts_)
-    for (int k : components_.size() == 6 ? std::vector<int>{0, 1, 2, 3, 4, 5, power_component} : components_) {
+    for (int k : listed) {
       Mean m;
       for (const auto& r : rows_)
         if (r.part == i && r.component == k && in_window(r.time, from_s, to_s, period)) m.add(r);

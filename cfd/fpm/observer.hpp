@@ -19,8 +19,9 @@
 
 namespace flapstab::fpm {
 
-// Load components by name: "Fx" "Fy" "Fz" "Mx" "My" "Mz" are 0 .. 5 (stability axes, moments about O); power rows
-// (written when all six are partitioned) are component 6, "power".
+// Load components by name: "Fx" "Fy" "Fz" "Mx" "My" "Mz" are 0 .. 5 (stability axes, moments about O); "power" is 6:
+// the part's rate of work on the air, partitioned through its own potential (one Laplace problem per part; without
+// "power" but with all six components, power rows are formed from them).
 constexpr int power_component = 6;
 const char* component_name(int k);
 int component_index(const std::string& name);  // std::invalid_argument for another name
@@ -81,7 +82,8 @@ class FpmObserver final : public ns::StepObserver {
  private:
   FpmSettings settings_;
   std::string dir_;
-  std::vector<int> components_, parts_;
+  std::vector<int> components_, parts_;  // as listed; power_component for "power"
+  bool power_potential_ = false, power_rows_ = false;
   std::vector<WingRegion> regions_;
   std::vector<std::string> region_names_;
   double region_size_ = 0;  // m

@@ -41,10 +41,15 @@ std::array<std::vector<double>, 6> boundary_normal_velocities(const Grid& g, con
   return planes;
 }
 
-// The Neumann datum of component k integrated over a surface piece: int n_k dS, or int ((x - x0) x n)_(k-3) dS.
-double datum(const FluidGeometry::Cut& c, int k, const Vec3& x0) {
+constexpr int kPower = 6;
+
+// The Neumann datum of component k integrated over a surface piece: int n_k dS, or int ((x - x0) x n)_(k-3) dS; for the
+// power potential (k = 6) int v . n dS with the rigid velocity v(x) = v_c + omega x (x - c) of the piece's part.
+double datum(const FluidGeometry::Cut& c, int k, const Vec3& x0, const std::vector<PartState>& states) {
   if (k < 3) return c.area[k];
-  return (c.moment - x0.cross(c.area))[k - 3];
+  if (k < 6) return (c.moment - x0.cross(c.area))[k - 3];
+  const ns::RigidVelocity& v = states[std::size_t(c.part)].velocity;
+  return v.velocity.dot(c.area) + v.omega.dot(c.moment - v.centre.cross(c.area));
 }
 
 }  // namespace
@@ -71,11 +76,15 @@ const std::vector<PotentialReport>& ForcePartition::update(const ns::ImmersedBou
   const LevelFunction level = [&](int part, const Vec3& x, double h) {
     return ib.solid_level_set(part, states[std::size_t(part)], x, h);
   };
-  return update(level, int(ib.parts()), ib.cell_owners(states));
+  return update(level, int(ib.parts()), ib.cell_owners(states), states);
 }
 
 const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& level, int parts,
-                                                           const std::vector<int>& owners) {
+                                                           const std::vector<int>& owners,
+                                                           const std::vector<PartState>& states) {
+  if (opt_.power && states.size() != std::size_t(parts))
+    throw std::invalid_argument("force partitioning: the power potential needs the states of the " +
+                                std::to_string(parts) + " parts");
   const Grid& g = *grid_;
   geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples));
   const FluidGeometry& o = *geometry_;
@@ -109,13 +118,15 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
   }
   reports_.clear();
   Field b(s);
+  std::vector<int> potentials = opt_.components;
+  if (opt_.power) potentials.push_back(kPower);
   for (int p = 0; p < parts; ++p)
-    for (int k : opt_.components) {
+    for (int k : potentials) {
       b.fill(0);
       double total = 0, magnitude = 0;
       for (const auto& c : o.cuts) {
         if (c.part != p) continue;
-        const double flux = -datum(c, k, opt_.moment_point);
+        const double flux = -datum(c, k, opt_.moment_point, states);
         b[c.cell] += flux;
         total += flux;
         magnitude += std::abs(flux);
@@ -255,74 +266,108 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
+  // The terms of one potential of part i (datum k): rho-scaled as in the partition's formula, the regions' share of the
+  // vortex-induced part (region_count_ entries; none without regions).
+  struct Terms {
+    double kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0, pressure = 0;
+    std::vector<double> regions;
+  };
+  auto terms = [&](int i, int k) {
+    const Field& phi = phi_[std::size_t(i)][std::size_t(k)];
+    Terms T;
+    double kin = 0, car = 0, direct = 0;
+    for (const auto& c : o.cuts) {
+      const PartState& st = states[std::size_t(c.part)];
+      const Vec3 r = c.centroid - st.velocity.centre;
+      const Vec3 centripetal = st.velocity.omega.cross(st.velocity.omega.cross(r));
+      const Vec3 a = st.acceleration + st.angular_acceleration.cross(r) + centripetal;
+      kin += phi[c.cell] * a.dot(c.area);
+      car += phi[c.cell] * centripetal.dot(c.area);
+      if (c.part == i) direct -= p[c.cell] * datum(c, k, x0, states);
+    }
+    double vortex = 0;
+    if (region_count_ > 0) {
+      std::vector<double> by_region(std::size_t(region_count_), 0.0);
+      double* acc = by_region.data();
+      const int nr = region_count_;
+      const int* label = region_labels_.data();
+#pragma omp parallel for schedule(static) reduction(+ : acc[:nr]) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            const std::size_t n = flat(ii, j, kk);
+            acc[label[n]] += q_[n] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
+          }
+      for (double v : by_region) {
+        vortex += v;
+        T.regions.push_back(-2 * rho * v);
+      }
+    } else {
+#pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii)
+            vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
+    }
+    // mu int lap u . grad phi over the open faces: grad phi df beta A = (phi_h - phi_l) beta A
+    double visc = 0;
+    for (int d = 0; d < 3; ++d) {
+      const Field& w = lap_area[d];
+      const std::ptrdiff_t step = s.stride(d);
+#pragma omp parallel for schedule(static) reduction(+ : visc) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            const std::ptrdiff_t nh = s(ii, j, kk);
+            if (w[nh] != 0) visc += w[nh] * (phi[nh] - phi[nh - step]);
+          }
+    }
+    double outer_term = 0;
+    for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
+    T.kinematic = rho * kin;
+    T.centripetal = rho * car;
+    T.vortex = -2 * rho * vortex;
+    T.viscous = mu * visc;
+    T.outer = -rho * outer_term;
+    T.pressure = rho * direct;
+    return T;
+  };
+
   std::vector<PartPartition> out(static_cast<std::size_t>(parts));
   for (int i = 0; i < parts; ++i) {
     PartPartition& P = out[std::size_t(i)];
+    if (region_count_ > 0) P.vortex_regions.assign(std::size_t(region_count_), Vec6::Zero());
     for (int k : opt_.components) {
-      const Field& phi = phi_[std::size_t(i)][std::size_t(k)];
-      double kin = 0, car = 0, direct = 0;
-      for (const auto& c : o.cuts) {
-        const PartState& st = states[std::size_t(c.part)];
-        const Vec3 r = c.centroid - st.velocity.centre;
-        const Vec3 centripetal = st.velocity.omega.cross(st.velocity.omega.cross(r));
-        const Vec3 a = st.acceleration + st.angular_acceleration.cross(r) + centripetal;
-        kin += phi[c.cell] * a.dot(c.area);
-        car += phi[c.cell] * centripetal.dot(c.area);
-        if (c.part == i) direct -= p[c.cell] * datum(c, k, x0);
-      }
-      double vortex = 0;
-      std::vector<double> by_region(std::size_t(std::max(region_count_, 1)), 0.0);
-      if (region_count_ > 0) {
-        double* acc = by_region.data();
-        const int nr = region_count_;
-        const int* label = region_labels_.data();
-#pragma omp parallel for schedule(static) reduction(+ : acc[:nr]) if (ns::threaded(s))
-        for (int kk = 1; kk <= s.nz; ++kk)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int ii = 1; ii <= s.nx; ++ii) {
-              const std::size_t n = flat(ii, j, kk);
-              acc[label[n]] += q_[n] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
-            }
-        for (double v : by_region) vortex += v;
-        P.vortex_regions.resize(std::size_t(nr), Vec6::Zero());
-        for (int r = 0; r < nr; ++r) P.vortex_regions[std::size_t(r)][k] = -2 * rho * by_region[std::size_t(r)];
-      } else {
-#pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
-        for (int kk = 1; kk <= s.nz; ++kk)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int ii = 1; ii <= s.nx; ++ii)
-              vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
-      }
-      // mu int lap u . grad phi over the open faces: grad phi df beta A = (phi_h - phi_l) beta A
-      double visc = 0;
-      for (int d = 0; d < 3; ++d) {
-        const Field& w = lap_area[d];
-        const std::ptrdiff_t step = s.stride(d);
-#pragma omp parallel for schedule(static) reduction(+ : visc) if (ns::threaded(s))
-        for (int kk = 1; kk <= s.nz; ++kk)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int ii = 1; ii <= s.nx; ++ii) {
-              const std::ptrdiff_t nh = s(ii, j, kk);
-              if (w[nh] != 0) visc += w[nh] * (phi[nh] - phi[nh - step]);
-            }
-      }
-      double outer_term = 0;
-      for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
-      P.kinematic[k] = rho * kin;
-      P.centripetal[k] = rho * car;
-      P.vortex[k] = -2 * rho * vortex;
-      P.viscous[k] = mu * visc;
-      P.outer[k] = -rho * outer_term;
-      P.pressure[k] = rho * direct;
+      const Terms T = terms(i, k);
+      P.kinematic[k] = T.kinematic;
+      P.centripetal[k] = T.centripetal;
+      P.vortex[k] = T.vortex;
+      P.viscous[k] = T.viscous;
+      P.outer[k] = T.outer;
+      P.pressure[k] = T.pressure;
+      for (std::size_t r = 0; r < T.regions.size(); ++r) P.vortex_regions[r][k] = T.regions[r];
     }
-    const PartState& st = states[std::size_t(i)];
-    const Vec3 v0 = st.velocity.at(x0), w = st.velocity.omega;
-    auto power = [&](const Vec6& f) { return -(f.head<3>().dot(v0) + f.tail<3>().dot(w)); };
-    P.power_kinematic = power(P.kinematic);
-    P.power_vortex = power(P.vortex);
-    P.power_viscous = power(P.viscous);
-    P.power_outer = power(P.outer);
-    P.power_pressure = power(P.pressure);
+    if (opt_.power) {
+      // the power potential's partition is the pressure's rate of work on the part by mechanism; the part's on the
+      // fluid is its negative
+      const Terms T = terms(i, kPower);
+      P.power_kinematic = -T.kinematic;
+      P.power_centripetal = -T.centripetal;
+      P.power_vortex = -T.vortex;
+      P.power_viscous = -T.viscous;
+      P.power_outer = -T.outer;
+      P.power_pressure = -T.pressure;
+      for (double v : T.regions) P.power_vortex_regions.push_back(-v);
+    } else {
+      const PartState& st = states[std::size_t(i)];
+      const Vec3 v0 = st.velocity.at(x0), w = st.velocity.omega;
+      auto power = [&](const Vec6& f) { return -(f.head<3>().dot(v0) + f.tail<3>().dot(w)); };
+      P.power_kinematic = power(P.kinematic);
+      P.power_vortex = power(P.vortex);
+      P.power_viscous = power(P.viscous);
+      P.power_outer = power(P.outer);
+      P.power_pressure = power(P.pressure);
+    }
   }
   un_prev_ = std::move(un_now);
   t_prev_ = t;
@@ -353,7 +398,7 @@ Eigen::Matrix<double, 6, 6> ForcePartition::added_mass(int i, int j, double rho)
   for (const auto& c : geometry().cuts)
     if (c.part == j)
       for (int k : opt_.components)
-        for (int l = 0; l < 6; ++l) m(k, l) -= rho * potential(i, k)[c.cell] * datum(c, l, opt_.moment_point);
+        for (int l = 0; l < 6; ++l) m(k, l) -= rho * potential(i, k)[c.cell] * datum(c, l, opt_.moment_point, {});
   return m;
 }
 

@@ -42,7 +42,12 @@ struct PartPartition {
   Vec6 pressure = Vec6::Zero();     // -oint p g dS on the staircase surface (the partition's sum, computed directly)
   std::vector<Vec6> vortex_regions; // the vortex-induced part by region (set_regions; empty without), summing to vortex
   // Rate of work of the part on the fluid by mechanism, W: -(F . v(x0) + M . omega) with the part's rigid velocity.
+  // With FpmOptions::power they come from the power potential (one Laplace problem instead of six; the same up to the
+  // solver's tolerance), otherwise from the six components (zero unless all six are partitioned). The power's regions
+  // and its centripetal share are filled with FpmOptions::power only.
   double power_kinematic = 0, power_vortex = 0, power_viscous = 0, power_outer = 0, power_pressure = 0;
+  double power_centripetal = 0;
+  std::vector<double> power_vortex_regions;
   Vec6 sum() const { return kinematic + vortex + viscous + outer; }
   Vec6 added_mass() const { return kinematic - centripetal; }  // classical: from a + alpha x r
 };
@@ -53,10 +58,13 @@ struct FpmOptions {
   Vec3 moment_point = Vec3::Zero();  // x0 of the moment potentials (grid axes)
   std::vector<int> components{0, 1, 2, 3, 4, 5};  // which of F_x .. M_z to partition (the rest stay zero)
   int face_samples = 4;  // m x m points per face near a surface for the cut-cell apertures
+  // Also the power potential of each part: d phi/dn = v . n with the part's rigid velocity v at the update (its
+  // partition is the rate of work by mechanism, PartPartition::power_*). Needs the part states in update().
+  bool power = false;
 };
 
 struct PotentialReport {
-  int part = 0, component = 0;
+  int part = 0, component = 0;  // component 6: the power potential
   LaplaceStats stats;
   double imbalance = 0;  // |sum of the Neumann fluxes| / sum of their magnitudes (0 for a closed wetted surface)
   std::size_t pocket_cells = 0;  // fluid cells cut off by the parts, left out (FluidGeometry::pocket_cells)
@@ -72,7 +80,8 @@ class ForcePartition {
   const std::vector<PotentialReport>& update(const ns::ImmersedBoundary& ib, const std::vector<PartState>& states);
   // The same for parts given by their level sets (`owners`: the part holding each interior cell's centre, x fastest,
   // -1 fluid; owners_of() computes it).
-  const std::vector<PotentialReport>& update(const LevelFunction& level, int parts, const std::vector<int>& owners);
+  const std::vector<PotentialReport>& update(const LevelFunction& level, int parts, const std::vector<int>& owners,
+                                            const std::vector<PartState>& states = {});
 
   // The partition at the solver's current state for the parts at `states` (the same as the last update's), fluid
   // density rho. Needs update() first (std::logic_error). The outer term's d u_n / dt comes from the previous call's
@@ -86,7 +95,7 @@ class ForcePartition {
   // M_ij(k, l) = -rho oint_{part j} phi_(i,k) g_l dS (g_l part j's Neumann datum of component l). Rows of components
   // not partitioned are zero.
   Eigen::Matrix<double, 6, 6> added_mass(int part_i, int part_j, double rho) const;
-  const Field& potential(int part, int component) const;
+  const Field& potential(int part, int component) const;  // component 6: the power potential
   // -2 rho Q phi at the cell centres for (part, component) from the last partition (N/m^3 for a force component):
   // the vortex-induced force density whose volume integral is that part's vortex term. Interior cells, x fastest.
   std::vector<double> vortex_density(int part, int component) const;
@@ -103,7 +112,7 @@ class ForcePartition {
   const Grid* grid_;
   FpmOptions opt_;
   std::unique_ptr<FluidGeometry> geometry_;
-  std::vector<std::array<Field, 6>> phi_;  // per part
+  std::vector<std::array<Field, 7>> phi_;  // per part: the six components, then the power potential
   std::vector<PotentialReport> reports_;
   std::vector<double> q_;                   // last partition's Q at the cell centres
   std::vector<int> region_labels_;          // per interior cell (set_regions)

@@ -284,6 +284,11 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     res.seconds_per_step_estimate = progress.seconds_per_step_estimate();
     res.seconds_per_step = progress.seconds_per_step();
     res.rows = csv.rows();
+    if (partition) {
+      res.fpm_rows = partition->rows();
+      res.fpm_regions = partition->region_names();
+      res.fpm_seconds = partition->seconds();
+    }
   };
   std::optional<InterruptGuard> signals;
   if (o.handle_signals && !o.dry_run) signals.emplace();
@@ -346,9 +351,6 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   all.insert(all.end(), csv.rows().begin(), csv.rows().end());
   res.result = cfd_run_result(all, plan, weight);
   if (partition) {
-    res.fpm_rows = partition->rows();
-    res.fpm_regions = partition->region_names();
-    res.fpm_seconds = partition->seconds();
     if (res.result.available) {
       res.fpm_means_json = partition->means(res.result.from_s, res.result.to_s, plan.period, weight).dump();
       res.fpm_summary = partition->summary(res.result.from_s, res.result.to_s, plan.period);
