@@ -2,6 +2,7 @@
 #include "apps/cfd_command.hpp"
 #include "apps/commands.hpp"
 
+#include <filesystem>
 #include <iostream>
 #include <fmt/format.h>
 
@@ -140,12 +141,14 @@ int run_cfd_command(const CfdCommandOptions& o) {
       fmt::print("dry run: {} cells, {:.1f} MiB, {:.3g} s per step; nothing written\n", r.cells, r.bytes / 1048576.0,
                  r.seconds_per_step_estimate);
     else {
-      fmt::print("wrote {0}/forces.csv, {0}/forces.svg, {0}/run.json, {0}/fields, {0}/surfaces, {0}/checkpoints ({1} "
-                 "steps, {2:.1f} s){3}\n",
-                 opt.directory, r.steps, r.wall_seconds,
+      // what the run left in its directory (fields and surfaces only when their outputs are on)
+      std::string files;
+      for (const char* f : {"forces.csv", "forces.svg", "run.json", "fpm.csv", "fpm.svg", "fields", "surfaces",
+                            "checkpoints"})
+        if (std::filesystem::exists(opt.directory + "/" + f)) files += (files.empty() ? "" : ", ") + opt.directory + "/" + f;
+      fmt::print("wrote {} ({} steps, {:.1f} s){}\n", files, r.steps, r.wall_seconds,
                  r.status == "stopped" ? fmt::format("; stopped after --steps {}: continue with --restart", o.steps)
                                        : std::string());
-      if (!r.fpm_rows.empty()) fmt::print("wrote {0}/fpm.csv, {0}/fpm.svg (force partitioning)\n", opt.directory);
       if (r.result.available) fmt::print("{}", ns::cfd_run_result_text(r.result));
     }
   }
