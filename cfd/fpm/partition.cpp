@@ -65,7 +65,11 @@ const FluidGeometry& ForcePartition::geometry() const {
 }
 
 const Field& ForcePartition::potential(int part, int component) const {
-  return phi_.at(std::size_t(part)).at(std::size_t(component));
+  const Field& f = phi_.at(std::size_t(part)).at(std::size_t(component));
+  if (!(f.shape() == grid_->shape()))
+    throw std::invalid_argument("force partitioning: no potential of component " + std::to_string(component) +
+                                " (not among the options' components, or no update yet)");
+  return f;
 }
 
 const std::vector<PotentialReport>& ForcePartition::update(const ns::ImmersedBoundary& ib,
@@ -111,15 +115,15 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
   }
   const auto& outer = outer_;
   const double outer_area = outer_area_;
-  if (phi_.size() != std::size_t(parts)) {
-    phi_.assign(std::size_t(parts), {});
-    for (auto& a : phi_)
-      for (auto& f : a) f = Field(s);
-  }
-  reports_.clear();
-  Field b(s);
   std::vector<int> potentials = opt_.components;
   if (opt_.power) potentials.push_back(kPower);
+  // only the potentials asked for hold storage (7 per part would be 21 fields of the grid for an insect)
+  if (phi_.size() != std::size_t(parts)) phi_.assign(std::size_t(parts), {});
+  for (auto& a : phi_)
+    for (int k : potentials)
+      if (!(a[std::size_t(k)].shape() == s)) a[std::size_t(k)] = Field(s);
+  reports_.clear();
+  Field b(s);
   for (int p = 0; p < parts; ++p)
     for (int k : potentials) {
       b.fill(0);
