@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include "cfd/navier_stokes/plan.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 
@@ -83,6 +84,31 @@ FpmRow parse_fpm_csv_row(const std::string& line, std::size_t regions) {
   r.solver_viscous = num(15);
   for (std::size_t i = 0; i < regions; ++i) r.regions.push_back(num(kFixedColumns + i));
   return r;
+}
+
+std::size_t fpm_estimated_bytes(const ns::CfdPlan& plan, const FpmSettings& settings) {
+  const ns::Grid g = ns::plan_grid(plan);
+  const std::size_t field = g.shape().size() * sizeof(double);
+  const std::size_t potentials = settings.parts.size() * settings.components.size();
+  // level 0 of the Laplacian (3 conductances, diagonal, x, b, r) and its coarse levels (< 1/7 more): 8; its CG work
+  // fields 5; the geometry (3 apertures, volume fraction) 4; the Laplacian of u 3, Q 1, the transient centre fields 7
+  // and the right-hand side 1; owners and region labels (4 bytes each) 1
+  return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1) * field;
+}
+
+void check_fpm_memory(const ns::CfdPlan& plan, const FpmSettings& settings, const std::string& case_path,
+                      std::size_t available) {
+  if (available == 0) available = ns::available_memory_bytes();
+  if (available == 0) return;
+  const std::size_t run = ns::estimated_bytes(plan), fpm = fpm_estimated_bytes(plan, settings);
+  if (run + fpm <= available) return;
+  throw InputError(case_path, "aero.cfd.fpm",
+                   fmt::format("the run needs about {:.2f} GiB and force partitioning {:.2f} GiB more ({} potentials); "
+                               "{:.2f} GiB of memory is available",
+                               run / 1073741824.0, fpm / 1073741824.0, settings.parts.size() * settings.components.size(),
+                               available / 1073741824.0),
+                   "fewer parts or components in [aero.cfd.fpm] (each potential is one field of the grid), or a "
+                   "coarser grid");
 }
 
 FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings, std::string directory)

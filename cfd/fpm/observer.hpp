@@ -49,6 +49,14 @@ std::string fpm_csv_row(const FpmRow& r);
 // The inverse of fpm_csv_row for a file with `regions` region columns; std::invalid_argument for a malformed row.
 FpmRow parse_fpm_csv_row(const std::string& line, std::size_t regions);
 
+// Memory force partitioning holds during a run of `plan` (bytes, an upper estimate): the potentials asked for (parts x
+// components), the Laplace solver's levels and work fields, the cut-cell geometry, Q, the Laplacian of u, the labels.
+std::size_t fpm_estimated_bytes(const ns::CfdPlan& plan, const FpmSettings& settings);
+// Refuses a run whose solver and partitioning together do not fit in `available` bytes (0: the memory the system
+// reports available): InputError naming the case file and aero.cfd.fpm, with both estimates and what would fit.
+void check_fpm_memory(const ns::CfdPlan& plan, const FpmSettings& settings, const std::string& case_path,
+                      std::size_t available = 0);
+
 class FpmObserver final : public ns::StepObserver {
  public:
   // `directory` "": everything in memory. InputError naming the case file and aero.cfd.fpm for a simulation the

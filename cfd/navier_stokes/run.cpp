@@ -191,6 +191,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     }
   }
 
+  if (s.fpm.enabled && o.bodies) fpm::check_fpm_memory(plan, s.fpm, c.path);  // before anything large is allocated
   SimulationOptions so;
   so.bodies = o.bodies;
   so.initial_velocity = o.initial_velocity;

@@ -11,6 +11,7 @@
 
 #include "cfd/fpm/observer.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/plan.hpp"
 #include "cfd/navier_stokes/run.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
 #include "common/case_text.hpp"
@@ -182,6 +183,21 @@ TEST(FpmRun, RestartKeepsTheEarlierSamples) {
     for (auto [u, v] : {std::pair{x.kinematic, y.kinematic}, {x.vortex, y.vortex}, {x.viscous, y.viscous}})
       EXPECT_NEAR(u, v, 1e-3 * peak) << "step " << x.step;  // potentials to 1e-4 of their data (tolerance)
   }
+}
+
+// A run whose solver and partitioning do not fit in memory is refused before anything is allocated, naming
+// aero.cfd.fpm; the estimate grows by one grid field per potential.
+TEST(FpmRun, MemoryCheckCountsThePotentials) {
+  const Case c = fpm_case("fpm_memory.toml", "");
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const std::size_t run = ns::estimated_bytes(plan), fpm = fpm_estimated_bytes(plan, c.aero.cfd.fpm);
+  FpmSettings more = c.aero.cfd.fpm;
+  more.components.push_back("Fy");
+  EXPECT_EQ(fpm_estimated_bytes(plan, more) - fpm, 3 * ns::plan_grid(plan).shape().size() * sizeof(double));
+  const std::string m =
+      testing::expect_input_error([&] { check_fpm_memory(plan, c.aero.cfd.fpm, c.path, run + fpm / 2); }, "aero.cfd.fpm");
+  EXPECT_NE(m.find("6 potentials"), std::string::npos) << m;
+  EXPECT_NO_THROW(check_fpm_memory(plan, c.aero.cfd.fpm, c.path, run + fpm));
 }
 
 TEST(FpmRun, DryRunEstimatesTheCostAndWritesNothing) {
