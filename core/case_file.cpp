@@ -617,6 +617,17 @@ const std::vector<std::string>& trim_parameter_names() {
   return names;
 }
 
+void check_cfd_geometry(const Insect& insect, const std::string& path, const std::string& key) {
+  if (insect.hind_wing)
+    throw InputError(path, key.empty() ? "hind_wing" : key,
+                     "a four-winged insect ([hind_wing]) is not yet in the CFD geometry (one pair of wings)",
+                     "model = \"quasi-steady\" for a hind pair");
+  if (insect.abdomen)
+    throw InputError(path, key.empty() ? "abdomen" : key,
+                     "an insect with an [abdomen] is not in the CFD geometry (one rigid body)",
+                     "model = \"quasi-steady\" for an abdomen");
+}
+
 Case load_case(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path, "", "no such file", "a TOML case file");
   toml::table root;
@@ -686,12 +697,7 @@ Case load_case(const std::string& path) {
     throw InputError(path, "aero.cfd.fpm", "force partitioning splits the loads of a CFD run, but [aero] model is \"" +
                                                c.aero.model + "\"",
                      "[aero] model = \"cfd\" (or remove [aero.cfd.fpm])");
-  if (c.insect.hind_wing && c.aero.model == "cfd")
-    throw InputError(path, "aero.model", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
-                     "model = \"quasi-steady\" for a hind pair");
-  if (c.insect.abdomen && c.aero.model == "cfd")
-    throw InputError(path, "aero.model", "an insect with an [abdomen] is not in the CFD geometry (one rigid body)",
-                     "model = \"quasi-steady\" for an abdomen");
+  if (c.aero.model == "cfd") check_cfd_geometry(c.insect, path, "aero.model");
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});

@@ -180,5 +180,9 @@ const std::vector<std::string>& trim_parameter_names();
 
 // Loads and validates a case file. Throws InputError(file, key, problem, expected).
 Case load_case(const std::string& path);
+// The CFD geometry is one rigid body with one pair of wings: InputError naming `path` and `key` (empty: the section,
+// "hind_wing" or "abdomen") for a hind pair or an abdomen. load_case calls it for model = "cfd", flapstab cfd for
+// every case.
+void check_cfd_geometry(const Insect& insect, const std::string& path, const std::string& key = "");
 
 }  // namespace flapstab

@@ -163,7 +163,7 @@ void FpmObserver::keep_earlier(const std::string& file, long step) {
     FpmRow r;
     try {
       r = parse_fpm_csv_row(line, region_names_.size());
-    } catch (const std::exception& e) {
+    } catch (const std::exception&) {
       break;  // a row cut by the kill: rows past the checkpoint are dropped anyway
     }
     if (r.step > step) break;
@@ -195,6 +195,7 @@ std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
   const Wing& wing = sim.case_file().insect.wing;
   std::vector<RegionWing> wings = {{"right", &wing, states[1].pose}, {"left", &wing, states[2].pose}};
   RegionSet set = label_regions(sim.grid(), wings, regions_, region_size_);
+  last_labels_ = set.labels;  // for the field output of this sample
   partition_->set_regions(std::move(set.labels), set.count());
   const std::vector<PartPartition> parts = partition_->partition(sim.solver(), states, rho_);
   const ns::CfdLoadRow loads = sim.loads();
@@ -275,12 +276,8 @@ void FpmObserver::write_fields(const ns::Simulation& sim) {
       store.push_back(partition_->vortex_density(i, k));
       names.emplace_back("vortex_force_density_" + tag, k < 3 ? "N/m^3" : k < 6 ? "N/m^2" : "W/m^3");
     }
-  // the regions as labels (0 wake, then region_names order)
-  const std::vector<ns::PartState> states = sim.part_states();
-  const Wing& wing = sim.case_file().insect.wing;
-  const RegionSet set = label_regions(sim.grid(), {{"right", &wing, states[1].pose}, {"left", &wing, states[2].pose}},
-                                      regions_, region_size_);
-  store.emplace_back(set.labels.begin(), set.labels.end());
+  // the regions of this sample as labels (0 wake, then region_names order)
+  store.emplace_back(last_labels_.begin(), last_labels_.end());
   names.emplace_back("fpm_region", "1");
   std::vector<ns::CellField> fields;
   for (std::size_t n = 0; n < store.size(); ++n)
@@ -381,6 +378,7 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
   auto lift = [&](double fz) { return -fz * w; };
   const double L = lift(m.sp + m.sv);
   auto pc = [&](double fz) { return L != 0 ? 100.0 * lift(fz) / L : 0.0; };
+  const double closure = m.kinematic + m.vortex + m.viscous + m.outer - m.pressure;
   std::string s = fmt::format(
       "  force partition of the wings' lift (-F_z), t = {:.4g} .. {:.4g} s: total {:.4g} N (pressure {:.4g} N, skin "
       "friction {:.4g} N)\n"
@@ -388,8 +386,7 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
       "viscous {:.1f} %, outer boundary {:.1f} %, skin friction {:.1f} %; closure: partition sum - cut-cell pressure "
       "force = {:.1f} % of the total\n",
       from_s, to_s, L, lift(m.sp), lift(m.sv), pc(m.kinematic), pc(m.kinematic - m.centripetal), pc(m.centripetal),
-      pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(m.kinematic + m.vortex + m.viscous + m.outer - m.pressure));
-  const double closure = m.kinematic + m.vortex + m.viscous + m.outer - m.pressure;
+      pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(closure));
   if (m.pressure != 0 && std::abs(closure) > 0.1 * std::abs(m.pressure))
     s += fmt::format("    warning: the parts sum to {:.0f} % of the cut-cell pressure lift: on this grid the partition does "
                      "not close, so read the vortex-induced and viscous shares as what the velocity field implies, not as "

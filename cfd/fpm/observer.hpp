@@ -98,6 +98,7 @@ class FpmObserver final : public ns::StepObserver {
   double rho_ = 0;
   std::optional<ForcePartition> partition_;
   std::optional<ns::FieldWriter> writer_;
+  std::vector<int> last_labels_;  // the last sample's region of each cell
   std::vector<FpmRow> rows_;
   std::vector<std::string> lines_;
   long samples_ = 0, solves_ = 0, iterations_ = 0, unconverged_ = 0;

@@ -129,12 +129,7 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& o) {
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
-  if (c.insect.abdomen)  // before anything is planned or written
-    throw InputError(c.path, "abdomen", "an insect with an abdomen is not in the CFD geometry (one rigid body)",
-                     "a case without [abdomen] for the CFD model");
-  if (c.insect.hind_wing)  // with model = "quasi-steady" the case loads; the CFD geometry holds one pair
-    throw InputError(c.path, "hind_wing", "a four-winged insect ([hind_wing]) is not yet in the CFD geometry",
-                     "a two-winged case for flapstab cfd");
+  check_cfd_geometry(c.insect, c.path);  // before anything is planned or written (any [aero] model)
   const CfdSettings& s = c.aero.cfd;
   std::ostream* log = o.log;
   CfdResult res;

@@ -47,7 +47,7 @@ TEST(AeroFactory, QuasiSteadyConstantsFromTheCaseFile) {
   auto loads = [](const Case& c) {
     return make_aero_model(c)->run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{}).mean();
   };
-  const Wrench w0 = loads(c0), w1 = loads(c1), w2 = loads(c2), w3 = loads(c3);
+  const Wrench w0 = loads(c0), w1 = loads(c1), w2 = loads(c2);
   EXPECT_EQ((w0.force - w1.force).norm(), 0.0);
   EXPECT_EQ((w0.moment - w1.moment).norm(), 0.0);
   EXPECT_GT((w0.force - w2.force).norm(), 1e-3 * w0.force.norm());

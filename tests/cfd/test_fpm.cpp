@@ -240,7 +240,6 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
     const double surface = flow.ib.loads(flow.solver, Vec3::Zero())[0].pressure_force.x() / q,
                  exchange = flow.ib.exchange_loads(flow.solver, Vec3::Zero())[0].pressure_force.x() / q;
     fmt::print("  immersed boundary pressure C_D: surface {:.4f}, momentum exchange {:.4f}\n", surface, exchange);
-    EXPECT_LT(std::abs(P.kinematic[0]), 1e-12 * q);  // nothing moves
     EXPECT_GT(P.vortex[0] + P.viscous[0] + P.outer[0], 0.0);  // a drag
     gap[n++] = std::abs(P.sum()[0] / P.pressure[0] - 1);
   }
