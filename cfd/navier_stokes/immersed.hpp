@@ -62,6 +62,10 @@ struct ImmersedOptions {
   double lattice_refinement = 2.0;       // lattice spacing = finest local grid spacing / this
   double probe_near = 1.5;               // probe distances, local cell widths: loads from the (effective) surface,
   double probe_far = 2.5;                // the band's quadratic from the forced face
+  // A band value whose probes reach into another part's band is bounded by the values it interpolates (the
+  // surface velocity and the two probes): without the bound, two parts' bands feeding each other's quadratic
+  // overshoot can blow up (a wing root against the body). false: the unbounded quadratic everywhere.
+  bool bound_contact_values = true;
 };
 
 // Loads of one part on the fluid's side: force and moment the fluid exerts on the part (grid axes).

@@ -262,6 +262,24 @@ double max_rate(const Grid& g, const VectorField& u) {
   return m;
 }
 
+RateLocation max_rate_location(const Grid& g, const VectorField& u) {
+  const Shape s = g.shape();
+  RateLocation best;
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        const std::ptrdiff_t n = s(i, j, k);
+        const double r = std::max(std::abs(u[0].data()[n]), std::abs(u[0].data()[n + 1])) * g.axis[0].idc[i] +
+                         std::max(std::abs(u[1].data()[n]), std::abs(u[1].data()[n + s.sy])) * g.axis[1].idc[j] +
+                         std::max(std::abs(u[2].data()[n]), std::abs(u[2].data()[n + s.sz])) * g.axis[2].idc[k];
+        if (!(r <= best.rate)) {  // NaN wins: it is where the flow broke
+          best = {i, j, k, Vec3(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]), r};
+          if (std::isnan(r)) return best;
+        }
+      }
+  return best;
+}
+
 double max_viscous_rate(const Grid& g, double nu) {
   double m[3];
   for (int a = 0; a < 3; ++a) {

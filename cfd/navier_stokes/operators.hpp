@@ -34,6 +34,13 @@ void project(const Grid& g, const VectorField& ustar, const Field& phi, VectorFi
 double kinetic_energy(const Grid& g, const VectorField& u);       // 1/2 sum over faces of u^2 times face volume
 double max_divergence(const Grid& g, const VectorField& u);       // max over cells of |D u|
 double max_rate(const Grid& g, const VectorField& u);             // max over cells of sum_a |u_a| / dx_a
+// Where that maximum is (a slow scan, for messages): the cell (1-based interior indices), its centre and the rate.
+struct RateLocation {
+  int i = 0, j = 0, k = 0;
+  Vec3 centre = Vec3::Zero();
+  double rate = 0;
+};
+RateLocation max_rate_location(const Grid& g, const VectorField& u);
 double max_viscous_rate(const Grid& g, double nu);                // max over cells of nu sum_a 1 / dx_a^2
 
 }  // namespace flapstab::ns

@@ -9,6 +9,7 @@
 
 #include "cfd/navier_stokes/geometry.hpp"
 #include "cfd/navier_stokes/insect_motion.hpp"
+#include "cfd/navier_stokes/operators.hpp"
 #include "core/configuration.hpp"
 
 namespace flapstab::ns {
@@ -83,7 +84,7 @@ struct Simulation::Impl : StageHooks {
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
       const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
-      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho});
+      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho, .bound_contact_values = o.bound_contact_values});
       const auto start = motion.parts(0.0);
       for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
       exchange = c.aero.cfd.loads == "exchange";
@@ -229,8 +230,24 @@ StepReport Simulation::advance() {
              q.viscous_moment.allFinite() && std::isfinite(q.power);
   if (!finite) throw StepFailure(step_, r.time, "the solution or the loads are not finite");
   r.cfl = m.solver.cfl(r.dt);
-  if (!(r.cfl <= rk3_cfl_limit))
-    throw StepFailure(step_, r.time, fmt::format("CFL {:.3g} above the RK3 limit 1.73 (the flow blew up)", r.cfl));
+  if (!(r.cfl <= rk3_cfl_limit)) {
+    // Where: the cell and its distance from the domain's faces, so that a blow-up at an outflow face is told from
+    // one at a wing.
+    const Grid& g = m.solver.grid();
+    const RateLocation at = max_rate_location(g, m.solver.velocity());
+    static const char* faces[6] = {"x-", "x+", "y-", "y+", "z-", "z+"};
+    int nearest = 0, cells = 1 << 30;
+    for (int a = 0; a < 3; ++a) {
+      const int idx = a == 0 ? at.i : a == 1 ? at.j : at.k, n = g.axis[std::size_t(a)].n;
+      if (idx - 1 < cells) cells = idx - 1, nearest = 2 * a;
+      if (n - idx < cells) cells = n - idx, nearest = 2 * a + 1;
+    }
+    throw StepFailure(step_, r.time,
+                      fmt::format("CFL {:.3g} above the RK3 limit 1.73 (the flow blew up), largest in cell ({}, {}, {}) "
+                                  "at ({:.4g}, {:.4g}, {:.4g}) m, {} cells from the {} face of the domain",
+                                  r.cfl, at.i, at.j, at.k, at.centre.x(), at.centre.y(), at.centre.z(), cells,
+                                  faces[nearest]));
+  }
   m.row = r.row;
   m.have_row = true;
   return r;
