@@ -26,11 +26,11 @@ const char* col_names[6] = {"u", "v", "w", "p", "q", "r"};
 // Before any CFD run: every derivative column must move the loads by well more than the periodic convergence
 // resolves. Predicted change of column j: max over rows of |dW_i/dx_j h_j| / scale_i (scale: weight, weight x c);
 // it must reach 10 x perturbation_tolerance (the converged differences then carry at most ~10 % of error).
-void check_resolution(const Case& c, const DerivativeResult& qs) {
+void check_resolution(const Case& c, const DerivativeResult& qs, const std::vector<int>& columns) {
   const double W = c.insect.weight(), tol = c.aero.cfd.perturbation_tolerance;
   std::string bad;
   double worst = 1e300;
-  for (int j = 0; j < 6; ++j) {
+  for (int j : columns) {
     const double h = j < 3 ? qs.velocity_step : qs.rate_step;
     double r = 0;
     for (int i = 0; i < 6; ++i)
@@ -48,6 +48,35 @@ void check_resolution(const Case& c, const DerivativeResult& qs) {
                                  c.derivatives.relative_step, bad, 10 * tol),
                      fmt::format("relative_step >= {:.3g}, or a smaller aero.cfd.perturbation_tolerance",
                                  c.derivatives.relative_step * 10 * tol / worst));
+}
+
+// Upper bound of each derivative's standard error from the two runs of its column: a run's standard error of the
+// mean difference (CfdRunRecord::final_change, fractions of W for forces and W c for moments, all three components
+// together) bounds each component's; the central difference's is sqrt(s+^2 + s-^2) / (2 h).
+void standard_errors(DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs, const std::vector<int>& columns,
+                     double weight, double chord) {
+  const auto& ref = d.table.reference;
+  for (int j : columns) {
+    const double h = j < 3 ? d.velocity_step : d.rate_step;
+    double sp = -1, sm = -1;
+    for (const auto& r : runs) {
+      if (r.other_kinematics || r.cycles.empty()) continue;
+      const Vec3& x = j < 3 ? r.motion.velocity : r.motion.rate;
+      const Vec3& y = j < 3 ? r.motion.rate : r.motion.velocity;
+      if (y.squaredNorm() != 0) continue;
+      Vec3 e = Vec3::Zero();
+      e(j % 3) = h;
+      if ((x - e).norm() <= 1e-12 * h) sp = r.final_change();
+      if ((x + e).norm() <= 1e-12 * h) sm = r.final_change();
+    }
+    if (sp < 0 || sm < 0) continue;
+    const double s = std::hypot(sp, sm) / (2 * h);  // per unit of the column variable, in units of the scale
+    for (int i = 0; i < 6; ++i) {
+      const double scale = i < 3 ? weight : weight * chord, load = i < 3 ? ref.force_scale() : ref.moment_scale();
+      const double var = j < 3 ? ref.U : ref.U / ref.c;
+      d.standard_error_nd(i, j) = s * scale * var / load;
+    }
+  }
 }
 
 FloquetAnalysis floquet_of(const PhaseDerivatives& ph, const std::string& name, const std::vector<int>& idx,
@@ -80,15 +109,17 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   if (!s.qs_trim.converged)
     throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
                                  s.qs_trim.message));
+  const std::vector<int> columns = derivative_columns(c.derivatives.columns);
+  const int derivative_runs = 2 * int(columns.size());
   s.qs_at_start = cycle_averaged_derivatives(*qs_model, c.insect, s.qs_trim.kinematics, c.fluid,
-                                             c.derivatives.relative_step);
-  check_resolution(c, s.qs_at_start);
+                                             c.derivatives.relative_step, {}, columns);
+  check_resolution(c, s.qs_at_start, columns);
   stage("quasi-steady trim and derivatives", t, 0);
 
   // 2. The plan: grid, cost of a step, runs and wingbeats.
   // The derivative runs' far fields (|V| + |Omega| r) enter the fixed step's CFL estimate.
   std::vector<BodyMotion> motions{BodyMotion{}};
-  for (int j = 0; j < 6; ++j) {
+  for (int j : columns) {
     BodyMotion m;
     (j < 3 ? m.velocity : m.rate)(j % 3) = j < 3 ? s.qs_at_start.velocity_step : s.qs_at_start.rate_step;
     motions.push_back(m);
@@ -108,17 +139,17 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   s.cells = ns::plan_grid(s.plan).cells();  // the campaign's grid holds every trim kinematics: scale the timing
   s.seconds_per_step_estimate = d.seconds_per_step_estimate * double(s.cells) / double(d.cells);
   const CfdSettings& cs = c.aero.cfd;
-  const int runs_max = 1 + cs.trim_iterations + 12;
-  const int typical = std::max(2, cs.cycles) + cs.max_cycles / 2 + 3 * (cs.trim_iterations / 2 + 12);
-  const int most = cs.max_cycles * (2 + cs.trim_iterations + 12);
+  const int runs_max = 1 + cs.trim_iterations + derivative_runs;
+  const int typical = std::max(2, cs.cycles) + cs.max_cycles / 2 + 3 * (cs.trim_iterations / 2 + derivative_runs);
+  const int most = cs.max_cycles * (2 + cs.trim_iterations + derivative_runs);
   const double per_cycle = s.seconds_per_step_estimate * s.plan.steps_per_cycle;
   if (log)
     *log << fmt::format(
         "cfd study: {} ({}), grid {} cells ({:.1f} per mean chord), {} steps per wingbeat, {:.3g} s per step: up to {} "
-        "CFD runs (the hover, <= {} trim iterations, 12 derivative runs) of 2 to {} wingbeats each plus the "
-        "continued hover; about {} wingbeats = {} (at most {} wingbeats = {}). Finished runs are kept in {}\n",
+        "CFD runs (the hover, <= {} trim iterations, {} derivative runs for the {} columns) of 2 to {} wingbeats each "
+        "plus the continued hover; about {} wingbeats = {} (at most {} wingbeats = {}). Finished runs are kept in {}\n",
         c.insect.name, c.path, s.cells, s.plan.chord_cells, s.plan.steps_per_cycle, s.seconds_per_step_estimate,
-        runs_max, cs.trim_iterations, cs.max_cycles, typical, ns::fmt_seconds(typical * per_cycle), most,
+        runs_max, cs.trim_iterations, derivative_runs, c.derivatives.columns, cs.max_cycles, typical, ns::fmt_seconds(typical * per_cycle), most,
         ns::fmt_seconds(most * per_cycle), cache.empty() ? std::string("memory only") : cache)
          << std::flush;
 
@@ -134,12 +165,16 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   // 4. CFD derivatives at the CFD trim, and the phase-resolved A(t) from the same runs.
   before = cfd.records().size();
   t = clock_type::now();
-  s.derivatives = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step);
+  s.derivatives = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step,
+                                             {}, columns);
   s.derivatives.table.source = "flapstab CFD cycle-averaged derivatives (navier-stokes-ib), from the kept hover state";
   s.phase = phase_resolved_from_runs(cfd, c.insect, s.trim.kinematics, s.derivatives.table.reference,
-                                     c.derivatives.relative_step);
-  stage("CFD derivatives (12 runs) and phase-resolved A(t)", t, int(cfd.records().size() - before));
-  s.qs = cycle_averaged_derivatives(*qs_model, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step);
+                                     c.derivatives.relative_step, std::nullopt, columns);
+  stage(fmt::format("CFD derivatives ({} runs) and phase-resolved A(t)", derivative_runs), t,
+        int(cfd.records().size() - before));
+  s.qs = cycle_averaged_derivatives(*qs_model, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step, {},
+                                    columns);
+  standard_errors(s.derivatives, cfd.records(), columns, c.insect.weight(), c.insect.wing.mean_chord);
   for (const auto& r : cfd.records())
     if (!r.converged)
       s.notices.push_back(fmt::format("CFD run '{}' did not converge in {} wingbeats (last change {:.3g})", r.label,
@@ -147,8 +182,10 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
 
   // 5. Floquet analysis of the CFD A(t).
   try {
-    s.floquet_longitudinal = floquet_of(s.phase, "longitudinal", {0, 2, 4, 7}, {"u", "w", "q", "theta"});
-    s.floquet_lateral = floquet_of(s.phase, "lateral", {1, 3, 5, 6}, {"v", "p", "r", "phi"});
+    if (s.derivatives.table.has_longitudinal)
+      s.floquet_longitudinal = floquet_of(s.phase, "longitudinal", {0, 2, 4, 7}, {"u", "w", "q", "theta"});
+    if (s.derivatives.table.has_lateral)
+      s.floquet_lateral = floquet_of(s.phase, "lateral", {1, 3, 5, 6}, {"v", "p", "r", "phi"});
   } catch (const std::exception& e) {
     s.notices.push_back(std::string("Floquet analysis of the CFD A(t) failed: ") + e.what());
   }
@@ -221,20 +258,33 @@ std::string cfd_study_markdown(const CfdStudy& s) {
     m += fmt::format("{} = {:.3f} {} (quasi-steady {:.3f}); ", p.label, p.value, p.unit, p.initial);
   m += fmt::format("residual force {:.2e} x weight, moment {:.2e} x weight x R.\n\n", s.trim.relative_force_residual,
                    s.trim.relative_moment_residual);
-  m += "Cycle-averaged derivatives (non-dimensional), CFD / quasi-steady at the same kinematics, and the CFD "
-       "linearity asymmetry:\n\n| | u | v | w | p | q | r |\n|---|---|---|---|---|---|---|\n";
-  for (int i = 0; i < 6; ++i) {
+  // The planes the table holds: longitudinal rows X Z M x columns u w q, lateral Y L N x v p r (both: all 36).
+  const DerivativeTable& tab = s.derivatives.table;
+  std::vector<int> idx;
+  for (int k = 0; k < 6; ++k)
+    if ((k % 2 == 0 && tab.has_longitudinal) || (k % 2 == 1 && tab.has_lateral)) idx.push_back(k);
+  m += "Cycle-averaged derivatives (non-dimensional), CFD ± its standard error (an upper bound from the runs' "
+       "scatter) / quasi-steady at the same kinematics, and the CFD linearity asymmetry:\n\n|";
+  for (int j : idx) m += fmt::format(" | {}", col_names[j]);
+  m += " |\n|---|";
+  for (std::size_t j = 0; j < idx.size(); ++j) m += "---|";
+  m += "\n";
+  for (int i : idx) {
     m += fmt::format("| {} ", row_names[i]);
-    for (int j = 0; j < 6; ++j)
-      m += fmt::format("| {:+.4f} / {:+.4f} ({:.0f} %) ", s.derivatives.table.nd(i, j), s.qs.table.nd(i, j),
+    for (int j : idx) {
+      const double se = s.derivatives.standard_error_nd(i, j);
+      m += fmt::format("| {:+.4f}{} / {:+.4f} ({:.0f} %) ", tab.nd(i, j),
+                       se >= 0 ? fmt::format(" ± {:.4f}", se) : std::string(), s.qs.table.nd(i, j),
                        100 * s.derivatives.asymmetry(i, j));
+    }
     m += "|\n";
   }
-  const auto& n = s.derivatives.table.nd;
-  m += fmt::format("\nHover pattern (Sun & Xiong 2005; Sun, Wang & Xiong 2007): X_u < 0: {}; M_u > 0: {}; Z_w < 0: {}; "
-                   "M_q < 0: {}.\n",
-                   n(0, 0) < 0 ? "yes" : "**no**", n(4, 0) > 0 ? "yes" : "**no**", n(2, 2) < 0 ? "yes" : "**no**",
-                   n(4, 4) < 0 ? "yes" : "**no**");
+  const auto& n = tab.nd;
+  if (tab.has_longitudinal)
+    m += fmt::format("\nHover pattern (Sun & Xiong 2005; Sun, Wang & Xiong 2007): X_u < 0: {}; M_u > 0: {}; Z_w < 0: "
+                     "{}; M_q < 0: {}.\n",
+                     n(0, 0) < 0 ? "yes" : "**no**", n(4, 0) > 0 ? "yes" : "**no**", n(2, 2) < 0 ? "yes" : "**no**",
+                     n(4, 4) < 0 ? "yes" : "**no**");
   for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral}) {
     if (!*f) continue;
     m += fmt::format("\nFloquet multipliers of the CFD A(t), {} [{}]:", (*f)->name, fmt::join((*f)->state_order, ", "));

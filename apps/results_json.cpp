@@ -166,13 +166,14 @@ json trim_json(const TrimResult& r) {
 json derivatives_json(const DerivativeResult& d) {
   static const char* rows = "XYZLMN";
   static const char* cols[] = {"u", "v", "w", "p", "q", "r"};
-  json nd, si, asym;
+  json nd, si, asym, se = json::object();
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j) {
       const std::string name = std::string(1, rows[i]) + cols[j];
       nd[name] = d.table.nd(i, j);
       si[name] = d.si(i, j);
       asym[name] = d.asymmetry(i, j);
+      if (d.standard_error_nd(i, j) >= 0) se[name] = d.standard_error_nd(i, j);
     }
   const auto& ref = d.table.reference;
   const auto& m = d.table.mass;
@@ -189,7 +190,12 @@ json derivatives_json(const DerivativeResult& d) {
                          {"frequency_hz", ref.frequency}, {"g_m_s2", ref.g}}},
           {"mass", {{"m_kg", m.m}, {"Ixx_kg_m2", m.Ixx}, {"Iyy_kg_m2", m.Iyy}, {"Izz_kg_m2", m.Izz},
                     {"Ixz_kg_m2", m.Ixz}}},
+          {"planes", {{"longitudinal", d.table.has_longitudinal}, {"lateral", d.table.has_lateral}}},
           {"nondimensional", nd},
+          {"standard_error_nondimensional", se},
+          {"standard_error_note", "where the model's runs carry one (CFD): an upper bound of each derivative's "
+                                  "standard error from its two runs' standard errors of the mean difference from the "
+                                  "continued hover (all three force or moment components taken together)"},
           {"si", si},
           {"linearity_asymmetry", asym},
           {"linearity_note", "|(W+ - W0) + (W- - W0)| / |W+ - W-| per derivative: 0 for a linear response"},

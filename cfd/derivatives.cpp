@@ -1,5 +1,7 @@
 // Cycle-averaged stability derivatives by central differences over any AeroModel.
 #include "cfd/derivatives.hpp"
+
+#include <algorithm>
 #include "cfd/phase_derivatives.hpp"
 #include "core/configuration.hpp"
 #include "core/eom.hpp"
@@ -37,14 +39,40 @@ MassProperties mass_properties(const Insect& insect, const Kinematics& kin) {
   return m;
 }
 
+std::vector<int> derivative_columns(const std::string& set) {
+  if (set == "all") return {0, 1, 2, 3, 4, 5};
+  if (set == "longitudinal") return {0, 2, 4};
+  if (set == "lateral") return {1, 3, 5};
+  throw SolveError("derivative_columns: unknown set \"" + set + "\" (all, longitudinal or lateral)");
+}
+
+namespace {
+
+bool has_columns(const std::vector<int>& columns, std::initializer_list<int> wanted) {
+  for (int j : wanted)
+    if (std::find(columns.begin(), columns.end(), j) == columns.end()) return false;
+  return true;
+}
+
+void check_columns(const std::vector<int>& columns) {
+  if (columns.empty()) throw SolveError("derivatives: no columns asked for");
+  for (int j : columns)
+    if (j < 0 || j > 5) throw SolveError("derivatives: column index out of 0..5");
+}
+
+}  // namespace
+
 DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                             const FluidProperties& fluid, double relative_step,
-                                            const AeroRunOptions& run) {
+                                            const AeroRunOptions& run, const std::vector<int>& columns) {
+  check_columns(columns);
   DerivativeResult out;
   DerivativeTable& t = out.table;
   t.reference = reference_quantities(insect, kin, fluid);
   t.mass = mass_properties(insect, kin);
-  t.has_longitudinal = t.has_lateral = t.has_coupling = true;
+  t.has_longitudinal = has_columns(columns, {0, 2, 4});
+  t.has_lateral = has_columns(columns, {1, 3, 5});
+  t.has_coupling = t.has_longitudinal && t.has_lateral;
   t.source = "flapstab cycle-averaged derivatives, " + model.name();
   const ReferenceQuantities& ref = t.reference;
   out.velocity_step = relative_step * ref.U;
@@ -61,7 +89,8 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
     out.mean_at_trim.force = w0.head<3>();
     out.mean_at_trim.moment = w0.tail<3>();
   }
-  for (int j = 0; j < 6; ++j) {
+  out.si.setZero();
+  for (int j : columns) {
     const double h = j < 3 ? out.velocity_step : out.rate_step;
     BodyMotion plus, minus;
     Vec3& p = j < 3 ? plus.velocity : plus.rate;
@@ -90,7 +119,8 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                           const ReferenceQuantities& ref, double relative_step,
-                                          std::optional<double> g_given) {
+                                          std::optional<double> g_given, const std::vector<int>& columns) {
+  check_columns(columns);
   const double g = g_given.value_or(insect.gravity);
   if (!(relative_step > 0)) throw SolveError("phase_resolved_from_runs: the relative step must be positive");
   PhaseDerivatives out;
@@ -103,7 +133,7 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
   const std::size_t N = h0.samples.size();
   if (N < 3) throw SolveError("phase_resolved_from_runs: the model's wingbeat has fewer than 3 samples");
   std::vector<WrenchHistory> plus(6), minus(6);
-  for (int j = 0; j < 6; ++j) {
+  for (int j : columns) {
     const double h = j < 3 ? out.velocity_step : out.rate_step;
     BodyMotion p, m;
     (j < 3 ? p.velocity : p.rate)(j % 3) = h;
@@ -119,8 +149,9 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
     PhaseSample s;
     s.time = h0.samples[k].time;
     s.state = BodyStateVector::Zero();
+    s.wrench_si.setZero();
     const Wrench w0 = h0.samples[k].total();
-    for (int j = 0; j < 6; ++j) {
+    for (int j : columns) {
       const double h = j < 3 ? out.velocity_step : out.rate_step;
       const Wrench wp = plus[std::size_t(j)].samples[k].total(), wm = minus[std::size_t(j)].samples[k].total();
       s.wrench_si.col(j).head<3>() = (wp.force - wm.force) / (2 * h);

@@ -21,12 +21,22 @@ struct DerivativeResult {
   // Linearity check per derivative: |(W+ - W0) + (W- - W0)| / |W+ - W-|, the asymmetry of the two one-sided
   // differences relative to their sum (0 for a linear response; 0 where W+ = W-).
   Eigen::Matrix<double, 6, 6> asymmetry = Eigen::Matrix<double, 6, 6>::Zero();
+  // Statistical uncertainty of each non-dimensional derivative where the model's runs have one (the CFD model's
+  // perturbed runs: the standard errors of their wingbeat-mean differences; see cfd_study); negative = none.
+  Eigen::Matrix<double, 6, 6> standard_error_nd = Eigen::Matrix<double, 6, 6>::Constant(-1.0);
 };
 
-// Central differences of the cycle-mean wrench about O with steps h U (velocities) and h U / c (rates).
+// The columns (0..5 = u v w p q r) of a [derivatives] columns setting: "all", "longitudinal" (u w q) or
+// "lateral" (v p r).
+std::vector<int> derivative_columns(const std::string& set);
+
+// Central differences of the cycle-mean wrench about O with steps h U (velocities) and h U / c (rates), for the
+// given columns (the others stay zero and the table's has_longitudinal / has_lateral / has_coupling say which
+// planes it holds: longitudinal = u w q, lateral = v p r).
 DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                             const FluidProperties& fluid, double relative_step,
-                                            const AeroRunOptions& run = {});
+                                            const AeroRunOptions& run = {},
+                                            const std::vector<int>& columns = {0, 1, 2, 3, 4, 5});
 
 // Phase-resolved derivatives from the same periodic runs as the cycle-averaged ones (any AeroModel; with the CFD
 // model, the runs its cycle-averaged table made): at each of the N phases of the runs' wingbeats,
@@ -34,8 +44,10 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 // motion about hover with the body held still (as phase_resolved_derivatives about the rest orbit). For the
 // quasi-steady model this is the instantaneous linearisation; for the CFD model it is the periodic response to a
 // steady perturbation, phase by phase (its wake memory included).
+// Only the given columns are run (the others' derivatives are zero).
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                           const ReferenceQuantities& reference, double relative_step,
-                                          std::optional<double> g = std::nullopt);  // default: insect.gravity
+                                          std::optional<double> g = std::nullopt,  // default: insect.gravity
+                                          const std::vector<int>& columns = {0, 1, 2, 3, 4, 5});
 
 }  // namespace flapstab

@@ -107,6 +107,10 @@ struct TrimSettings {
 
 struct DerivativeSettings {
   double relative_step = 0.01;
+  // Which columns of the table are computed: "all" (u v w p q r), "longitudinal" (u w q: the X Z M rows' inputs)
+  // or "lateral" (v p r). The others are left out of the table (its has_lateral / has_longitudinal flags), which
+  // halves the number of CFD runs of a stability study that needs one plane only.
+  std::string columns = "all";
 };
 
 // [flight]: nonlinear free flight (flapstab fly; flight/free_flight.hpp).

@@ -1,9 +1,11 @@
 // Tests for cfd/derivatives: step-size insensitivity, the hawkmoth-like longitudinal sign pattern,
 // symmetry of the decoupled table, and the non-dimensional scaling.
+#include <algorithm>
 #include <gtest/gtest.h>
 #include "cfd/aero_factory.hpp"
 #include "cfd/derivatives.hpp"
 #include "common/case_text.hpp"
+#include "core/errors.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
@@ -57,6 +59,30 @@ TEST(Derivatives, HawkmothLikeLongitudinalPattern) {
   for (const char* n : {"Xv", "Xp", "Xr", "Zv", "Zp", "Zr", "Mv", "Mp", "Mr", "Yu", "Yw", "Yq", "Lu", "Lw", "Lq", "Nu",
                         "Nw", "Nq"})
     EXPECT_NEAR(t.at(n), 0.0, 1e-10) << n;
+}
+
+// [derivatives] columns: the longitudinal (u w q) or lateral (v p r) columns alone are the same numbers as in the
+// whole table, with half the model runs; the other columns stay zero and the table says which planes it holds.
+TEST(Derivatives, ColumnSubsetsMatchTheWholeTableWithHalfTheRuns) {
+  const Trimmed& tr = trimmed_case();
+  const auto all = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
+  EXPECT_EQ(all.model_runs, 13);
+  for (const std::string set : {"longitudinal", "lateral"}) {
+    const std::vector<int> cols = derivative_columns(set);
+    const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {}, cols);
+    EXPECT_EQ(d.model_runs, 7) << set;
+    EXPECT_EQ(d.table.has_longitudinal, set == "longitudinal");
+    EXPECT_EQ(d.table.has_lateral, set == "lateral");
+    EXPECT_FALSE(d.table.has_coupling);
+    for (int j = 0; j < 6; ++j) {
+      const bool in = std::find(cols.begin(), cols.end(), j) != cols.end();
+      for (int i = 0; i < 6; ++i)
+        EXPECT_EQ(d.table.nd(i, j), in ? all.table.nd(i, j) : 0.0) << set << " (" << i << "," << j << ")";
+    }
+  }
+  EXPECT_THROW(derivative_columns("diagonal"), SolveError);
+  EXPECT_THROW(cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {}, {}),
+               SolveError);
 }
 
 TEST(Derivatives, NondimensionalScaling) {

@@ -88,8 +88,19 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"absurd_length", "length_m = 0.0519", "length_m = 1e5", "wing.length_m"},
                       BadCase{"absurd_frequency", "frequency_hz = 26.0", "frequency_hz = 1e300", "kinematics.frequency_hz"},
                       BadCase{"absurd_density", "density_kg_m3 = 1.225", "density_kg_m3 = 1e-300", "fluid.density_kg_m3"},
-                      BadCase{"absurd_tolerance", "tolerance = 1e-10", "tolerance = 1e-300", "trim.tolerance"}),
+                      BadCase{"absurd_tolerance", "tolerance = 1e-10", "tolerance = 1e-300", "trim.tolerance"},
+                      BadCase{"derivative_columns", "[trim]\n", "[derivatives]\ncolumns = \"diagonal\"\n[trim]\n",
+                              "derivatives.columns"}),
     [](const ::testing::TestParamInfo<BadCase>& i) { return std::string(i.param.label); });
+
+TEST(CaseFile, DerivativeColumnsDefaultToAllAndTakeAPlane) {
+  EXPECT_EQ(load_case(write_temp("columns_default.toml", valid_case_text())).derivatives.columns, "all");
+  for (const std::string set : {"all", "longitudinal", "lateral"}) {
+    const std::string path = write_temp("columns_" + set + ".toml", replace(valid_case_text(), "[trim]\n",
+                                        "[derivatives]\ncolumns = \"" + set + "\"\n[trim]\n"));
+    EXPECT_EQ(load_case(path).derivatives.columns, set);
+  }
+}
 
 TEST(CaseFile, MissingSectionIsAllowedOnlyForOptionalOnes) {
   // [fluid] is optional (defaults to air), so its removal loads.
