@@ -6,6 +6,7 @@
 #include "apps/cfd_command.hpp"
 #include "apps/commands.hpp"
 #include "apps/floquet_command.hpp"
+#include "apps/grid_convergence_command.hpp"
 #include "apps/flight_command.hpp"
 #include "apps/validate_command.hpp"
 #include "core/errors.hpp"
@@ -128,6 +129,20 @@ int main(int argc, char** argv) {
   h2d->add_option("--reference", vo.reference_dir, "directory of the published histories (default: the shipped "
                                                    "reference/wbd2004-hovering-2d)")->check(CLI::ExistingDirectory);
   h2d->add_flag("-q,--quiet", vo.quiet, "print nothing on success");
+  flapstab::GridConvergenceOptions go;
+  CLI::App* gc = app.add_subcommand(
+      "grid-convergence",
+      "discretisation error of a CFD derivative table: the same table on two or three grids (results of flapstab "
+      "derivatives, stability or analyze with model = \"cfd\"), per derivative the Richardson-extrapolated value, the "
+      "order and the grid-convergence index beside the runs' standard errors (docs/theory/cfd-stability.md)");
+  gc->add_option("results", go.inputs, "two or three result files (derivatives.json, results.json, stability.json) or "
+                                       "the directories holding them, any order")
+      ->required()->check(CLI::ExistingPath);
+  gc->add_option("--order", go.order, "order assumed with two grids, and where three grids give none (the immersed "
+                                      "boundary's near-wall error is first order)")->capture_default_str();
+  gc->add_option("-o,--output", go.output_dir, "write grid_convergence.json and grid_convergence.md into this directory");
+  gc->add_option("--json", go.json_path, "write the machine-readable results to this JSON file");
+  gc->add_flag("-q,--quiet", go.quiet, "print nothing on success");
   app.footer("Exit status: 0 success; 1 unexpected failure; 2 bad input (a missing or unreadable file, an invalid "
              "option or key; the message names the file and key, nothing is written); 3 numerical failure (trim or "
              "cyclic trim not converged, a CFD run diverged; the last CFD checkpoint is kept); 4 an output could not be "
@@ -149,6 +164,7 @@ int main(int argc, char** argv) {
     if (fly->parsed()) return flapstab::run_fly(fo);
     if (cmap->parsed()) return flapstab::run_control_map(fo);
     if (h2d->parsed()) return flapstab::run_validate_hovering_2d(vo);
+    if (gc->parsed()) return flapstab::run_grid_convergence(go);
     if (stab->parsed()) {
       if (o.case_path.empty() == o.derivatives_path.empty()) {
         fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");
