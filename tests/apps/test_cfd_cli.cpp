@@ -256,6 +256,59 @@ TEST(CfdCli, InterruptWritesACheckpointAndRestartContinues) {
   EXPECT_EQ(nlohmann::json::parse(js)["status"], "stopped");
 }
 
+// A killed analysis resumed with the same command gives the same results as an uninterrupted one (the CFD stability
+// chain, docs/theory/cfd-stability.md): the hover state and every finished run are kept in cfd_runs/ and reused
+// bit for bit, the rest is run from the kept hover. The tiny moth at Re 20, the longitudinal table (6 runs).
+TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
+  std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 100\nreynolds = 20\ncycles = 2\n"
+                                                   "hover_tolerance = 0.5\nmax_cycles = 3\nperturbation_tolerance = 0.003\n"
+                                                   "trim_iterations = 0\n");
+  text += "\n[derivatives]\nrelative_step = 0.1\ncolumns = \"longitudinal\"\n";
+  const std::string path = write_temp("cfdcli_resume.toml", text);
+  const fs::path whole = fs::path(path).parent_path() / "cfdcli_resume_whole";
+  const fs::path killed = fs::path(path).parent_path() / "cfdcli_resume_killed";
+  fs::remove_all(whole);
+  fs::remove_all(killed);
+  auto run = [&](const fs::path& dir, const std::string& errfile) {
+    return std::system((std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + dir.string() + " > /dev/null 2> " +
+                        errfile).c_str());
+  };
+  const std::string err_whole = write_temp("cfd_resume_whole.txt", "");
+  ASSERT_EQ(WEXITSTATUS(run(whole, err_whole)), 0);
+  // Kill the second analysis (SIGKILL: no chance to tidy up) once two perturbed runs are finished.
+  const std::string err_killed = write_temp("cfd_resume_killed.txt", ""), count = write_temp("cfd_resume_n.txt", "");
+  const std::string script =
+      std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + killed.string() + " > /dev/null 2> " + err_killed +
+      " & pid=$!; for i in $(seq 3000); do n=$(ls " + (killed / "cfd_runs").string() +
+      "/run_*.json 2>/dev/null | wc -l); [ $n -ge 2 ] && break; sleep 0.05; done; kill -KILL $pid; wait $pid; "
+      "ls " + (killed / "cfd_runs").string() + "/run_*.json | wc -l > " + count;
+  ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0);
+  int finished = 0;
+  std::ifstream(count) >> finished;
+  ASSERT_GE(finished, 2);
+  ASSERT_LT(finished, 6) << "the analysis finished before it was killed";
+  EXPECT_FALSE(fs::exists(killed / "results.json"));
+  const std::string err_resumed = write_temp("cfd_resume_resumed.txt", "");
+  ASSERT_EQ(WEXITSTATUS(run(killed, err_resumed)), 0);
+  std::ifstream log(err_resumed);
+  std::stringstream ss;
+  ss << log.rdbuf();
+  EXPECT_NE(ss.str().find("hover state reused"), std::string::npos) << ss.str();
+  std::size_t reused = 0;
+  for (std::size_t at = ss.str().find(") reused from"); at != std::string::npos; at = ss.str().find(") reused from", at + 1))
+    ++reused;
+  EXPECT_GE(reused, std::size_t(finished));
+  auto results = [](const fs::path& dir) { return nlohmann::json::parse(std::ifstream(dir / "results.json")); };
+  const nlohmann::json a = results(whole), b = results(killed);
+  ASSERT_TRUE(a.contains("derivatives"));
+  EXPECT_EQ(a["derivatives"]["nondimensional"], b["derivatives"]["nondimensional"]);
+  EXPECT_EQ(a["derivatives"]["standard_error_nondimensional"], b["derivatives"]["standard_error_nondimensional"]);
+  EXPECT_EQ(a["cfd"]["floquet_longitudinal"], b["cfd"]["floquet_longitudinal"]);
+  EXPECT_TRUE(a["derivatives"]["planes"]["longitudinal"].get<bool>());
+  EXPECT_FALSE(a["derivatives"]["planes"]["lateral"].get<bool>());
+  EXPECT_NE(a["derivatives"]["nondimensional"]["Xu"].get<double>(), 0.0);
+}
+
 TEST(CfdCli, HelpDescribesTheOptions) {
   const CfdRunOutput r = flapstab_cfd("--help");
   EXPECT_EQ(r.status, 0);

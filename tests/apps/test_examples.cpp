@@ -313,9 +313,11 @@ TEST(Examples, FlusiKinematicsFile) {
 }
 
 TEST(Examples, CfdCaseDryRun) {
-  const CliResult r = flapstab("cfd " + source + "/data/cases/hawkmoth_cfd.toml --dry-run");
-  EXPECT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
+  for (const char* name : {"hawkmoth_cfd.toml", "fruitfly_cfd.toml"}) {
+    const CliResult r = flapstab("cfd " + source + "/data/cases/" + name + " --dry-run");
+    EXPECT_EQ(r.status, 0) << name << ": " << r.err;
+    EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
+  }
 }
 
 // The force-partitioning examples (hawkmoth at Re = 1000, fruit fly at Re = 100): a dry run plans the grid, times two
