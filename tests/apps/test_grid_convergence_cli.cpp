@@ -9,23 +9,15 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include "common/run_cli.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Output {
-  int status;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using flapstab::testing::CliOutput;
+using flapstab::testing::slurp;
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::path(::testing::TempDir()) / name;
@@ -34,12 +26,8 @@ fs::path fresh_dir(const std::string& name) {
   return d;
 }
 
-Output grid_convergence(const std::string& args) {
-  const fs::path dir = fs::path(::testing::TempDir());
-  const std::string cmd = std::string(FLAPSTAB_BINARY) + " grid-convergence " + args + " > " +
-                          (dir / "gc_stdout.txt").string() + " 2> " + (dir / "gc_stderr.txt").string();
-  const int rc = std::system(cmd.c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(dir / "gc_stdout.txt"), slurp(dir / "gc_stderr.txt")};
+CliOutput grid_convergence(const std::string& args) {
+  return flapstab::testing::run_flapstab("grid-convergence " + args, "gc");
 }
 
 // A longitudinal CFD result at `cells` cells per chord: Xu = -0.3 + 0.8 h^2, Mq = -1 - 0.5 h (h = c / cells, in
@@ -77,7 +65,7 @@ const json* entry(const json& j, const std::string& name) {
 TEST(GridConvergenceCli, ThreeGridsGiveTheOrderAndLimitOfEachDerivative) {
   const fs::path d = fresh_dir("gc_three");
   const fs::path a = result(d, "a.json", 8), b = result(d, "b.json", 12), c = result(d, "c.json", 18);
-  const Output r = grid_convergence(c.string() + " " + a.string() + " " + b.string() + " -o " + (d / "out").string());
+  const CliOutput r = grid_convergence(c.string() + " " + a.string() + " " + b.string() + " -o " + (d / "out").string());
   ASSERT_EQ(r.status, 0) << r.err;
   ASSERT_TRUE(fs::exists(d / "out" / "grid_convergence.md"));
   const json j = json::parse(slurp(d / "out" / "grid_convergence.json"));
@@ -101,7 +89,7 @@ TEST(GridConvergenceCli, ThreeGridsGiveTheOrderAndLimitOfEachDerivative) {
 TEST(GridConvergenceCli, TwoGridsUseTheAssumedOrder) {
   const fs::path d = fresh_dir("gc_two");
   const fs::path a = result(d, "a.json", 8), b = result(d, "b.json", 16);
-  const Output r = grid_convergence(a.string() + " " + b.string() + " --order 1 --json " + (d / "gc.json").string() +
+  const CliOutput r = grid_convergence(a.string() + " " + b.string() + " --order 1 --json " + (d / "gc.json").string() +
                                     " -q");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(r.out.empty());
@@ -132,7 +120,7 @@ TEST(GridConvergenceCli, MixedOrIncompleteInputsExit2AndWriteNothing) {
                        Bad{a.string() + " " + broken.string(), "'cfd'"},
                        Bad{a.string() + " " + b.string() + " --order 0", "--order"},
                        Bad{a.string() + " " + d.string(), "holds none of"}}) {
-    const Output r = grid_convergence(x.args + " -o " + out.string());
+    const CliOutput r = grid_convergence(x.args + " -o " + out.string());
     EXPECT_EQ(r.status, 2) << x.args << "\n" << r.err;
     EXPECT_NE(r.err.find(x.says), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out)) << x.args;

@@ -7,29 +7,17 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include "common/run_cli.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Output {
-  int status;
-  std::string out, err;
-};
+using flapstab::testing::CliOutput;
+using flapstab::testing::slurp;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-Output validate(const std::string& args) {
-  const fs::path dir = fs::path(::testing::TempDir());
-  const std::string cmd = std::string(FLAPSTAB_BINARY) + " validate hovering-2d " + args + " > " +
-                          (dir / "validate_stdout.txt").string() + " 2> " + (dir / "validate_stderr.txt").string();
-  const int rc = std::system(cmd.c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(dir / "validate_stdout.txt"), slurp(dir / "validate_stderr.txt")};
+CliOutput validate(const std::string& args) {
+  return flapstab::testing::run_flapstab("validate hovering-2d " + args, "validate");
 }
 
 fs::path fresh_dir(const std::string& name) {
@@ -42,7 +30,7 @@ fs::path fresh_dir(const std::string& name) {
 // reference data's README: L_max ~ 3.02, D_max ~ 3.74 per unit span).
 TEST(ValidateCli, ShortHovering2dRunWritesItsFiles) {
   const fs::path d = fresh_dir("validate_short");
-  const Output r = validate("--cells-per-chord 8 --cycles 0.05 -o " + d.string());
+  const CliOutput r = validate("--cells-per-chord 8 --cycles 0.05 -o " + d.string());
   ASSERT_EQ(r.status, 0) << r.err;
   ASSERT_TRUE(fs::exists(d / "history.csv"));
   ASSERT_TRUE(fs::exists(d / "summary.json"));
@@ -68,7 +56,8 @@ TEST(ValidateCli, MissingReferenceFileExits2AndWritesNothing) {
   fs::create_directories(refs);
   std::ofstream(refs / "CL_Wang2004_experiment.dat") << "0.1 0.2\n0.2 0.3\n";
   const fs::path d = fresh_dir("validate_none");
-  const Output r = validate("--cells-per-chord 8 --cycles 0.05 --reference " + refs.string() + " -o " + d.string());
+  const CliOutput r =
+      validate("--cells-per-chord 8 --cycles 0.05 --reference " + refs.string() + " -o " + d.string());
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_NE(r.err.find("CD_Wang2004_experiment.dat"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d));
@@ -76,7 +65,7 @@ TEST(ValidateCli, MissingReferenceFileExits2AndWritesNothing) {
 
 TEST(ValidateCli, OutOfRangeOptionExits2) {
   const fs::path d = fresh_dir("validate_range");
-  const Output r = validate("--cells-per-chord 2 -o " + d.string());
+  const CliOutput r = validate("--cells-per-chord 2 -o " + d.string());
   EXPECT_EQ(r.status, 2);
   EXPECT_FALSE(fs::exists(d));
 }
