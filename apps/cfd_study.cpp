@@ -1,6 +1,7 @@
 // Stability from the Navier-Stokes model (cfd_study.hpp).
 #include "apps/cfd_study.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ostream>
@@ -28,26 +29,33 @@ const char* col_names[6] = {"u", "v", "w", "p", "q", "r"};
 // it must reach 10 x perturbation_tolerance (the converged differences then carry at most ~10 % of error).
 void check_resolution(const Case& c, const DerivativeResult& qs, const std::vector<int>& columns) {
   const double W = c.insect.weight(), tol = c.aero.cfd.perturbation_tolerance;
-  std::string bad;
-  double worst = 1e300;
-  for (int j : columns) {
-    const double h = j < 3 ? qs.velocity_step : qs.rate_step;
-    double r = 0;
-    for (int i = 0; i < 6; ++i)
-      r = std::max(r, std::abs(qs.si(i, j) * h) / (i < 3 ? W : W * c.insect.wing.mean_chord));
-    if (r < 10 * tol) {
-      bad += fmt::format("{}{}: {:.3g} of the weight", bad.empty() ? "" : ", ", col_names[j], r);
-      worst = std::min(worst, r);
+  // Velocity columns and rate columns separately: each has its own step (relative_step, relative_rate_step).
+  for (const bool rates : {false, true}) {
+    std::string bad;
+    double worst = 1e300;
+    for (int j : columns) {
+      if ((j >= 3) != rates) continue;
+      const double h = rates ? qs.rate_step : qs.velocity_step;
+      double r = 0;
+      for (int i = 0; i < 6; ++i)
+        r = std::max(r, std::abs(qs.si(i, j) * h) / (i < 3 ? W : W * c.insect.wing.mean_chord));
+      if (r < 10 * tol) {
+        bad += fmt::format("{}{}: {:.3g} of the weight", bad.empty() ? "" : ", ", col_names[j], r);
+        worst = std::min(worst, r);
+      }
     }
-  }
-  if (!bad.empty())
-    throw InputError(c.path, "derivatives.relative_step",
+    if (bad.empty()) continue;
+    const bool own = rates && c.derivatives.relative_rate_step > 0;
+    const std::string key = own ? "relative_rate_step" : "relative_step";
+    const double step = own ? c.derivatives.relative_rate_step : c.derivatives.relative_step;
+    throw InputError(c.path, "derivatives." + key,
                      fmt::format("the step {:g} is too small for the CFD runs to resolve: the largest load change the "
                                  "quasi-steady model predicts per column ({}) is below 10 x "
                                  "aero.cfd.perturbation_tolerance = {:.3g}",
-                                 c.derivatives.relative_step, bad, 10 * tol),
-                     fmt::format("relative_step >= {:.3g}, or a smaller aero.cfd.perturbation_tolerance",
-                                 c.derivatives.relative_step * 10 * tol / worst));
+                                 step, bad, 10 * tol),
+                     fmt::format("{} >= {:.3g}, or a smaller aero.cfd.perturbation_tolerance", key,
+                                 step * 10 * tol / worst));
+  }
 }
 
 // Upper bound of each derivative's standard error from the two runs of its column: a run's standard error of the
@@ -112,7 +120,7 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   const std::vector<int> columns = derivative_columns(c.derivatives.columns);
   const int derivative_runs = 2 * int(columns.size());
   s.qs_at_start = cycle_averaged_derivatives(*qs_model, c.insect, s.qs_trim.kinematics, c.fluid,
-                                             c.derivatives.relative_step, {}, columns);
+                                             c.derivatives.relative_step, {}, columns, c.derivatives.relative_rate_step);
   check_resolution(c, s.qs_at_start, columns);
   stage("quasi-steady trim and derivatives", t, 0);
 
@@ -125,6 +133,19 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
     motions.push_back(m);
   }
   s.plan = ns::plan_cfd(c, trim_extreme_kinematics(c, s.qs_trim), motions);
+  // A steady rate turns the body (and the grid fixed to it) through the air: over the several wingbeats of a run
+  // a large turn is no longer a small perturbation of the hover.
+  if (std::any_of(columns.begin(), columns.end(), [](int j) { return j >= 3; })) {
+    const double turn = s.qs_at_start.rate_step / s.qs_trim.kinematics.frequency_hz * 180 / 3.14159265358979323846;
+    if (turn > 5)
+      s.plan.warnings.push_back(fmt::format(
+          "the rate step ({:.4g} rad/s) turns the body {:.1f} deg per wingbeat, {:.0f} deg over a run of {} "
+          "wingbeats: not a small perturbation of the hover (the fruit fly's pitch-rate run at 22 deg per wingbeat "
+          "diverged in its 9th wingbeat); [derivatives] relative_rate_step = {:.3g} gives 5 deg per wingbeat",
+          s.qs_at_start.rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles,
+          (c.derivatives.relative_rate_step > 0 ? c.derivatives.relative_rate_step : c.derivatives.relative_step) *
+              5 / turn));
+  }
   for (const auto& w : s.plan.warnings) {
     if (log) *log << "cfd study: warning: " << w << "\n";
     s.notices.push_back("CFD plan: " + w);
@@ -149,8 +170,9 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         "CFD runs (the hover, <= {} trim iterations, {} derivative runs for the {} columns) of 2 to {} wingbeats each "
         "plus the continued hover; about {} wingbeats = {} (at most {} wingbeats = {}). Finished runs are kept in {}\n",
         c.insect.name, c.path, s.cells, s.plan.chord_cells, s.plan.steps_per_cycle, s.seconds_per_step_estimate,
-        runs_max, cs.trim_iterations, derivative_runs, c.derivatives.columns, cs.max_cycles, typical, ns::fmt_seconds(typical * per_cycle), most,
-        ns::fmt_seconds(most * per_cycle), cache.empty() ? std::string("memory only") : cache)
+        runs_max, cs.trim_iterations, derivative_runs, c.derivatives.columns, cs.max_cycles, typical,
+        ns::fmt_seconds(typical * per_cycle), most, ns::fmt_seconds(most * per_cycle),
+        cache.empty() ? std::string("memory only") : cache)
          << std::flush;
 
   // 3. CFD trim from the quasi-steady one.
@@ -166,14 +188,15 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   before = cfd.records().size();
   t = clock_type::now();
   s.derivatives = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step,
-                                             {}, columns);
+                                             {}, columns, c.derivatives.relative_rate_step);
   s.derivatives.table.source = "flapstab CFD cycle-averaged derivatives (navier-stokes-ib), from the kept hover state";
   s.phase = phase_resolved_from_runs(cfd, c.insect, s.trim.kinematics, s.derivatives.table.reference,
-                                     c.derivatives.relative_step, std::nullopt, columns);
+                                     c.derivatives.relative_step, std::nullopt, columns,
+                                     c.derivatives.relative_rate_step);
   stage(fmt::format("CFD derivatives ({} runs) and phase-resolved A(t)", derivative_runs), t,
         int(cfd.records().size() - before));
   s.qs = cycle_averaged_derivatives(*qs_model, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step, {},
-                                    columns);
+                                    columns, c.derivatives.relative_rate_step);
   standard_errors(s.derivatives, cfd.records(), columns, c.insect.weight(), c.insect.wing.mean_chord);
   for (const auto& r : cfd.records())
     if (!r.converged)

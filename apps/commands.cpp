@@ -83,7 +83,8 @@ void print_trim(const Case& c, const TrimResult& t, double seconds) {
 // Stability derivatives and, for every parameter the case can actuate, the control derivatives.
 DerivativeResult derivatives_with_control(const Case& c, const AeroModel& model, const Kinematics& kin) {
   DerivativeResult d = cycle_averaged_derivatives(model, c.insect, kin, c.fluid, c.derivatives.relative_step, {},
-                                                  derivative_columns(c.derivatives.columns));
+                                                  derivative_columns(c.derivatives.columns),
+                                                  c.derivatives.relative_rate_step);
   const ControlDerivativeResult cd = control_derivatives(model, c.insect, kin, actuated_parameters(c), d.table.reference);
   d.table.control = cd.columns;
   d.model_runs += cd.model_runs;

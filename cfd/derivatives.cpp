@@ -64,7 +64,8 @@ void check_columns(const std::vector<int>& columns) {
 
 DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                             const FluidProperties& fluid, double relative_step,
-                                            const AeroRunOptions& run, const std::vector<int>& columns) {
+                                            const AeroRunOptions& run, const std::vector<int>& columns,
+                                            double relative_rate_step) {
   check_columns(columns);
   DerivativeResult out;
   DerivativeTable& t = out.table;
@@ -76,7 +77,7 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
   t.source = "flapstab cycle-averaged derivatives, " + model.name();
   const ReferenceQuantities& ref = t.reference;
   out.velocity_step = relative_step * ref.U;
-  out.rate_step = relative_step * ref.U / ref.c;
+  out.rate_step = (relative_rate_step > 0 ? relative_rate_step : relative_step) * ref.U / ref.c;
   auto mean = [&](const BodyMotion& m) {
     ++out.model_runs;
     const Wrench w = model.run(insect, kin, m, run).mean();
@@ -119,7 +120,8 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                           const ReferenceQuantities& ref, double relative_step,
-                                          std::optional<double> g_given, const std::vector<int>& columns) {
+                                          std::optional<double> g_given, const std::vector<int>& columns,
+                                          double relative_rate_step) {
   check_columns(columns);
   const double g = g_given.value_or(insect.gravity);
   if (!(relative_step > 0)) throw SolveError("phase_resolved_from_runs: the relative step must be positive");
@@ -127,7 +129,7 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
   out.period = kin.period();
   out.relative_step = relative_step;
   out.velocity_step = relative_step * ref.U;
-  out.rate_step = relative_step * ref.U / ref.c;
+  out.rate_step = (relative_rate_step > 0 ? relative_rate_step : relative_step) * ref.U / ref.c;
   out.reference = ref;
   const WrenchHistory h0 = model.run(insect, kin, BodyMotion{}, AeroRunOptions{});
   const std::size_t N = h0.samples.size();

@@ -30,13 +30,15 @@ struct DerivativeResult {
 // "lateral" (v p r).
 std::vector<int> derivative_columns(const std::string& set);
 
-// Central differences of the cycle-mean wrench about O with steps h U (velocities) and h U / c (rates), for the
+// Central differences of the cycle-mean wrench about O with steps h U (velocities) and h_r U / c (rates; h_r =
+// relative_rate_step, or h where that is 0), for the
 // given columns (the others stay zero and the table's has_longitudinal / has_lateral / has_coupling say which
 // planes it holds: longitudinal = u w q, lateral = v p r).
 DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                             const FluidProperties& fluid, double relative_step,
                                             const AeroRunOptions& run = {},
-                                            const std::vector<int>& columns = {0, 1, 2, 3, 4, 5});
+                                            const std::vector<int>& columns = {0, 1, 2, 3, 4, 5},
+                                            double relative_rate_step = 0);  // 0: relative_step
 
 // Phase-resolved derivatives from the same periodic runs as the cycle-averaged ones (any AeroModel; with the CFD
 // model, the runs its cycle-averaged table made): at each of the N phases of the runs' wingbeats,
@@ -48,6 +50,7 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
 PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& insect, const Kinematics& kin,
                                           const ReferenceQuantities& reference, double relative_step,
                                           std::optional<double> g = std::nullopt,  // default: insect.gravity
-                                          const std::vector<int>& columns = {0, 1, 2, 3, 4, 5});
+                                          const std::vector<int>& columns = {0, 1, 2, 3, 4, 5},
+                                          double relative_rate_step = 0);  // 0: relative_step
 
 }  // namespace flapstab

@@ -729,6 +729,7 @@ Case load_case(const std::string& path) {
   c.derivatives.relative_step = der.positive_in("relative_step", 0.01, 1e-6, 0.5, "a step / reference speed");
   if (c.derivatives.relative_step > 0.5) der.fail("relative_step", "too large", "a relative step below 0.5");
   c.derivatives.columns = der.string("columns", false, c.derivatives.columns, {"all", "longitudinal", "lateral"});
+  c.derivatives.relative_rate_step = der.positive_in("relative_rate_step", 0.0, 1e-6, 0.5, "a rate step x c / U");
   der.reject_unknown();
 
   Section fl = top.sub("flight", false);

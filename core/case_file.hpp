@@ -111,6 +111,10 @@ struct DerivativeSettings {
   // or "lateral" (v p r). The others are left out of the table (its has_lateral / has_longitudinal flags), which
   // halves the number of CFD runs of a stability study that needs one plane only.
   std::string columns = "all";
+  // The rate step / (U / c); 0: relative_step. A steady rate turns the body by (rate step) x T per wingbeat
+  // (rate_step c / U x 2 Phi r2 / c rad): in a CFD run that lasts several wingbeats a smaller rate step than the
+  // velocity step keeps the rotation small (the CFD study prints it and warns above 5 deg per wingbeat).
+  double relative_rate_step = 0;
 };
 
 // [flight]: nonlinear free flight (flapstab fly; flight/free_flight.hpp).

@@ -85,6 +85,32 @@ TEST(Derivatives, ColumnSubsetsMatchTheWholeTableWithHalfTheRuns) {
                SolveError);
 }
 
+// [derivatives] relative_rate_step: the rate columns take their own step (h_r U / c), the velocity columns keep
+// theirs; the quasi-steady loads are smooth, so the rate derivatives agree with the default step's to the
+// truncation error of InsensitiveToStepSize (1e-3 of the row's largest derivative at h = 0.003 vs 0.01).
+TEST(Derivatives, RateColumnsTakeTheirOwnStep) {
+  const Trimmed& tr = trimmed_case();
+  const auto d0 = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
+  const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {},
+                                            {0, 1, 2, 3, 4, 5}, 0.003);
+  EXPECT_DOUBLE_EQ(d.velocity_step, d0.velocity_step);
+  EXPECT_NEAR(d.rate_step, 0.3 * d0.rate_step, 1e-12 * d0.rate_step);
+  for (int i = 0; i < 6; ++i) {
+    const double scale = d0.table.nd.row(i).cwiseAbs().maxCoeff();
+    for (int j = 0; j < 6; ++j) {
+      if (j < 3) {
+        EXPECT_EQ(d.table.nd(i, j), d0.table.nd(i, j)) << i << "," << j;
+      } else {
+        EXPECT_NEAR(d.table.nd(i, j), d0.table.nd(i, j), 1e-3 * scale) << i << "," << j;
+      }
+    }
+  }
+  // The phase-resolved derivatives from the runs use the same steps.
+  const PhaseDerivatives ph = phase_resolved_from_runs(*tr.model, tr.c.insect, tr.t.kinematics, d.table.reference, 0.01,
+                                                       std::nullopt, {0, 1, 2, 3, 4, 5}, 0.003);
+  EXPECT_NEAR(ph.rate_step, d.rate_step, 1e-12 * d.rate_step);
+}
+
 TEST(Derivatives, NondimensionalScaling) {
   const Trimmed& tr = trimmed_case();
   const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);

@@ -90,11 +90,19 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"absurd_density", "density_kg_m3 = 1.225", "density_kg_m3 = 1e-300", "fluid.density_kg_m3"},
                       BadCase{"absurd_tolerance", "tolerance = 1e-10", "tolerance = 1e-300", "trim.tolerance"},
                       BadCase{"derivative_columns", "[trim]\n", "[derivatives]\ncolumns = \"diagonal\"\n[trim]\n",
-                              "derivatives.columns"}),
+                              "derivatives.columns"},
+                      BadCase{"rate_step", "[trim]\n", "[derivatives]\nrelative_rate_step = 0.9\n[trim]\n",
+                              "derivatives.relative_rate_step"}),
     [](const ::testing::TestParamInfo<BadCase>& i) { return std::string(i.param.label); });
 
 TEST(CaseFile, DerivativeColumnsDefaultToAllAndTakeAPlane) {
-  EXPECT_EQ(load_case(write_temp("columns_default.toml", valid_case_text())).derivatives.columns, "all");
+  const Case d = load_case(write_temp("columns_default.toml", valid_case_text()));
+  EXPECT_EQ(d.derivatives.columns, "all");
+  EXPECT_EQ(d.derivatives.relative_rate_step, 0.0);  // 0: the rate columns take relative_step
+  EXPECT_EQ(load_case(write_temp("rate_step.toml", replace(valid_case_text(), "[trim]\n",
+                                                          "[derivatives]\nrelative_rate_step = 0.004\n[trim]\n")))
+                .derivatives.relative_rate_step,
+            0.004);
   for (const std::string set : {"all", "longitudinal", "lateral"}) {
     const std::string path = write_temp("columns_" + set + ".toml", replace(valid_case_text(), "[trim]\n",
                                         "[derivatives]\ncolumns = \"" + set + "\"\n[trim]\n"));

@@ -178,7 +178,9 @@ TEST(Translation, FloquetExponentsEqualTheFreeModelsInTheLargeInertiaLimit) {
       diff[r] = std::max(diff[r], std::abs(std::log(run.translation[i]) - std::log(run.free[i])));
     std::printf("    k = %.0e: largest |log mu_translation - log mu_free| = %.3e, parameters differ by %.3e deg\n", ks[r],
                 diff[r], run.parameter_difference);
-    if (r == 1) EXPECT_LT(run.parameter_difference, 1e-7);
+    if (r == 1) {
+      EXPECT_LT(run.parameter_difference, 1e-7);
+    }
   }
   EXPECT_LT(diff[1], 1e-6);
   EXPECT_GT(diff[0], 50 * diff[1]);
