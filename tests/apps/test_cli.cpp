@@ -183,7 +183,9 @@ TEST(Cli, NoTrimEvaluatesAtTheCaseKinematicsAndReportsTheResidual) {
   EXPECT_LT(j.at("trim").at("residuals").at("force_relative_to_weight").get<double>(), 1e-8);
   EXPECT_LT(j.at("trim").at("residuals").at("moment_relative_to_weight_times_wing_length").get<double>(), 1e-8);
   for (const auto& [k, v] : trimmed.at("derivatives").at("nondimensional").items())
-    if (v.is_number()) EXPECT_NEAR(j.at("derivatives").at("nondimensional").at(k).get<double>(), v.get<double>(), 1e-9) << k;
+    if (v.is_number()) {
+      EXPECT_NEAR(j.at("derivatives").at("nondimensional").at(k).get<double>(), v.get<double>(), 1e-9) << k;
+    }
 
   // The untrimmed case: the same residual in derivatives, stability, floquet and analyze.
   const CliRun d = flapstab("derivatives " + base + " --no-trim -q --json " + dir + "/nt_d.json");

@@ -64,9 +64,10 @@ TEST(AeroFactory, QuasiSteadyConstantsFromTheCaseFile) {
   std::string alpha, lift, drag;
   for (int i = 0; i <= 90; ++i) {
     const double a = i * 3.14159265358979323846 / 180;
-    alpha += (i ? ", " : "") + std::to_string(i);
-    lift += (i ? ", " : "") + fmt_double(1.678 * std::sin(2 * a));
-    drag += (i ? ", " : "") + fmt_double(0.07 * std::cos(a) * std::cos(a) + 3.06 * std::sin(a) * std::sin(a));
+    const std::string sep = i ? ", " : "";
+    alpha += sep + std::to_string(i);
+    lift += sep + fmt_double(1.678 * std::sin(2 * a));
+    drag += sep + fmt_double(0.07 * std::cos(a) * std::cos(a) + 3.06 * std::sin(a) * std::sin(a));
   }
   const std::string bw = testing::replace(base, "coefficients = \"robofly\"", "coefficients = \"berman-wang\"");
   const std::string table = testing::replace(base, "coefficients = \"robofly\"\nblade_elements = 40\n",

@@ -647,7 +647,10 @@ TEST(QuasiSteadyModel, NameAndSampling) {
   EXPECT_DOUBLE_EQ(h.samples[3].time, 3 * kin.period() / 16);
   const WrenchSample s = qs.instantaneous(in, kin, h.samples[3].time, {});
   EXPECT_EQ(s.total().force, h.samples[3].total().force);
-  EXPECT_THROW(QuasiSteadyModel(QuasiSteadyOptions{1.2, CoefficientSet::robofly, 0}), std::invalid_argument);
+  QuasiSteadyOptions no_elements;
+  no_elements.rho = 1.2;
+  no_elements.blade_elements = 0;
+  EXPECT_THROW(QuasiSteadyModel{no_elements}, std::invalid_argument);
 }
 
 // loads_jacobian: the analytic d[F; M] / d[v; Omega] against central differences of `loads` (steps 1e-6 U and
