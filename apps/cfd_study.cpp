@@ -102,6 +102,19 @@ std::string fmt_c(std::complex<double> z) {
 
 }  // namespace
 
+std::optional<std::string> rate_step_warning(const Case& c, double rate_step, double frequency_hz) {
+  // A steady rate turns the body (and the grid fixed to it) through the air: over the several wingbeats of a run
+  // a large turn is no longer a small perturbation of the hover.
+  const double turn = rate_step / frequency_hz * 180 / 3.14159265358979323846;
+  if (!(turn > 5)) return std::nullopt;
+  const double h = c.derivatives.relative_rate_step > 0 ? c.derivatives.relative_rate_step : c.derivatives.relative_step;
+  return fmt::format(
+      "the rate step ({:.4g} rad/s) turns the body {:.1f} deg per wingbeat, {:.0f} deg over a run of {} wingbeats: "
+      "not a small perturbation of the hover (the fruit fly's pitch-rate run at 22 deg per wingbeat diverged in its "
+      "9th wingbeat); [derivatives] relative_rate_step = {:.3g} gives 5 deg per wingbeat",
+      rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles, h * 5 / turn);
+}
+
 CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   const auto t0 = clock_type::now();
   CfdStudy s;
@@ -133,19 +146,9 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
     motions.push_back(m);
   }
   s.plan = ns::plan_cfd(c, trim_extreme_kinematics(c, s.qs_trim), motions);
-  // A steady rate turns the body (and the grid fixed to it) through the air: over the several wingbeats of a run
-  // a large turn is no longer a small perturbation of the hover.
-  if (std::any_of(columns.begin(), columns.end(), [](int j) { return j >= 3; })) {
-    const double turn = s.qs_at_start.rate_step / s.qs_trim.kinematics.frequency_hz * 180 / 3.14159265358979323846;
-    if (turn > 5)
-      s.plan.warnings.push_back(fmt::format(
-          "the rate step ({:.4g} rad/s) turns the body {:.1f} deg per wingbeat, {:.0f} deg over a run of {} "
-          "wingbeats: not a small perturbation of the hover (the fruit fly's pitch-rate run at 22 deg per wingbeat "
-          "diverged in its 9th wingbeat); [derivatives] relative_rate_step = {:.3g} gives 5 deg per wingbeat",
-          s.qs_at_start.rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles,
-          (c.derivatives.relative_rate_step > 0 ? c.derivatives.relative_rate_step : c.derivatives.relative_step) *
-              5 / turn));
-  }
+  if (std::any_of(columns.begin(), columns.end(), [](int j) { return j >= 3; }))
+    if (auto w = rate_step_warning(c, s.qs_at_start.rate_step, s.qs_trim.kinematics.frequency_hz))
+      s.plan.warnings.push_back(*w);
   for (const auto& w : s.plan.warnings) {
     if (log) *log << "cfd study: warning: " << w << "\n";
     s.notices.push_back("CFD plan: " + w);

@@ -45,6 +45,10 @@ struct CfdStudy {
 // derivative step the periodic convergence cannot resolve (names derivatives.relative_step, with the numbers).
 CfdStudy cfd_study(const Case& c, const std::string& cache_directory, std::ostream* log);
 
+// The plan's warning for a rate step (rad/s) that turns the body more than 5 deg per wingbeat (none below): the
+// turn per wingbeat, over max_cycles, and the relative_rate_step that gives 5 deg.
+std::optional<std::string> rate_step_warning(const Case& c, double rate_step, double frequency_hz);
+
 nlohmann::json cfd_study_json(const CfdStudy& s);
 // Markdown section: grid, convergence, cost per stage, CFD and quasi-steady tables side by side, Floquet.
 std::string cfd_study_markdown(const CfdStudy& s);
