@@ -110,8 +110,8 @@ std::optional<std::string> rate_step_warning(const Case& c, double rate_step, do
   const double h = c.derivatives.relative_rate_step > 0 ? c.derivatives.relative_rate_step : c.derivatives.relative_step;
   return fmt::format(
       "the rate step ({:.4g} rad/s) turns the body {:.1f} deg per wingbeat, {:.0f} deg over a run of {} wingbeats: "
-      "not a small perturbation of the hover (the fruit fly's pitch-rate run at 22 deg per wingbeat diverged in its "
-      "9th wingbeat); [derivatives] relative_rate_step = {:.3g} gives 5 deg per wingbeat",
+      "not a small perturbation of the hover (docs/theory/cfd-stability.md, \"The rate step\"); [derivatives] "
+      "relative_rate_step = {:.3g} gives 5 deg per wingbeat",
       rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles, h * 5 / turn);
 }
 

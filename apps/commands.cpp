@@ -169,10 +169,14 @@ int run_derivatives(const CommandOptions& o) {
   if (!o.quiet) {
     print_trim(c, t, secs);
     fmt::print("cycle-averaged derivatives (non-dimensional, hover stability axes; rows X Y Z L M N, "
-               "columns u v w p q r):\n");
+               "columns u v w p q r; - : not computed, [derivatives] columns):\n");
+    // The columns of a plane the table does not hold (longitudinal: u w q; lateral: v p r) are not computed.
+    auto held = [&](int k) { return k % 2 == 0 ? d.table.has_longitudinal : d.table.has_lateral; };
     for (int i = 0; i < 6; ++i) {
       fmt::print("  {}", "XYZLMN"[i]);
-      for (int k = 0; k < 6; ++k) fmt::print(" {:>11.4e}", d.table.nd(i, k));
+      for (int k = 0; k < 6; ++k) {
+        fmt::print(" {:>11}", held(k) ? fmt::format("{:.4e}", d.table.nd(i, k)) : std::string("-"));
+      }
       fmt::print("\n");
     }
     if (cfd) fmt::print("\n{}", cfd_study_markdown(*cfd));

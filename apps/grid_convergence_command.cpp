@@ -10,6 +10,7 @@
 
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
+#include "core/derivative_table.hpp"
 #include "core/grid_convergence.hpp"
 
 namespace flapstab {
@@ -18,9 +19,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-const char* rows = "XYZLMN";
-const char* cols[6] = {"u", "v", "w", "p", "q", "r"};
 
 struct Input {
   std::string path;
@@ -131,44 +129,47 @@ int run_grid_convergence(const GridConvergenceOptions& o) {
       "grid-to-grid change within twice the runs' combined standard errors: there the grid error is not resolved by "
       "the runs.\n\n| derivative | values | extrapolated | order | GCI | standard error | note |\n|---|---|---|---|---|---|---|\n",
       in.size() == 3 ? "apparent, from the three grids" : "assumed", o.order);
-  for (int i = 0; i < 6; ++i)
-    for (int jc = 0; jc < 6; ++jc) {
-      const bool lon_entry = i % 2 == 0 && jc % 2 == 0, lat_entry = i % 2 == 1 && jc % 2 == 1;
-      if (!((lon_entry && lon) || (lat_entry && lat))) continue;
-      const std::string name = std::string(1, rows[i]) + cols[jc];
-      std::vector<GridValue> v;
-      std::vector<double> se;
-      for (const auto& x : in) {
-        const json& d = x.j["derivatives"];
-        v.push_back({x.h, d["nondimensional"].at(name).get<double>()});
-        const json& s = d.value("standard_error_nondimensional", json::object());
-        se.push_back(s.contains(name) ? s.at(name).get<double>() : -1.0);
-      }
-      const GridConvergence g = grid_convergence(v, o.order);
-      const bool have_se = se[0] >= 0 && se[1] >= 0;
-      const bool scatter = have_se && std::abs(v[0].value - v[1].value) <= 2 * std::hypot(se[0], se[1]);
-      json vals = json::array();
-      for (const auto& x : v) vals.push_back(x.value);
-      table.push_back({{"derivative", name},
-                       {"values_finest_first", vals},
-                       {"extrapolated", g.extrapolated},
-                       {"convergence", to_string(g.kind)},
-                       {"order", g.order},
-                       {"order_assumed", g.order_assumed},
-                       {"relative_change_fine", g.relative_error},
-                       {"gci_fine", g.gci_fine},
-                       {"gci_fine_absolute", g.gci_fine * std::abs(g.finest)},
-                       {"standard_error_finest", se[0] >= 0 ? json(se[0]) : json(nullptr)},
-                       {"within_run_scatter", scatter},
-                       {"note", g.note}});
-      std::string values;
-      for (const auto& x : v) values += fmt::format("{}{:+.4f}", values.empty() ? "" : ", ", x.value);
-      md += fmt::format("| {} | {} | {:+.4f} | {:.2f}{} ({}) | {:.1f} % (± {:.4f}) | {} | {}{} |\n", name, values,
-                        g.extrapolated, g.order, g.order_assumed ? " assumed" : "", to_string(g.kind),
-                        100 * g.gci_fine, g.gci_fine * std::abs(g.finest),
-                        se[0] >= 0 ? fmt::format("{:.4f}", se[0]) : std::string("-"), scatter ? "scatter" : "",
-                        g.note.empty() ? "" : (scatter ? "; " : "") + g.note);
+  std::vector<std::string> names;
+  if (lon) names = longitudinal_derivative_names();
+  if (lat) names.insert(names.end(), lateral_derivative_names().begin(), lateral_derivative_names().end());
+  for (const std::string& name : names) {
+    std::vector<GridValue> v;
+    std::vector<double> se;
+    for (const auto& x : in) {
+      const json& d = x.j["derivatives"];
+      const json& value = d["nondimensional"].value(name, json());
+      if (!value.is_number())
+        throw InputError(x.path, "derivatives.nondimensional." + name, "missing or not a number",
+                         "the derivative on every grid");
+      v.push_back({x.h, value.get<double>()});
+      const json& s = d.value("standard_error_nondimensional", json::object());
+      se.push_back(s.contains(name) ? s.at(name).get<double>() : -1.0);
     }
+    const GridConvergence g = grid_convergence(v, o.order);
+    const bool have_se = se[0] >= 0 && se[1] >= 0;
+    const bool scatter = have_se && std::abs(v[0].value - v[1].value) <= 2 * std::hypot(se[0], se[1]);
+    json vals = json::array();
+    for (const auto& x : v) vals.push_back(x.value);
+    table.push_back({{"derivative", name},
+                     {"values_finest_first", vals},
+                     {"extrapolated", g.extrapolated},
+                     {"convergence", to_string(g.kind)},
+                     {"order", g.order},
+                     {"order_assumed", g.order_assumed},
+                     {"relative_change_fine", g.relative_error},
+                     {"gci_fine", g.gci_fine},
+                     {"gci_fine_absolute", g.gci_fine * std::abs(g.finest)},
+                     {"standard_error_finest", se[0] >= 0 ? json(se[0]) : json(nullptr)},
+                     {"within_run_scatter", scatter},
+                     {"note", g.note}});
+    std::string values;
+    for (const auto& x : v) values += fmt::format("{}{:+.4f}", values.empty() ? "" : ", ", x.value);
+    md += fmt::format("| {} | {} | {:+.4f} | {:.2f}{} ({}) | {:.1f} % (± {:.4f}) | {} | {}{} |\n", name, values,
+                      g.extrapolated, g.order, g.order_assumed ? " assumed" : "", to_string(g.kind),
+                      100 * g.gci_fine, g.gci_fine * std::abs(g.finest),
+                      se[0] >= 0 ? fmt::format("{:.4f}", se[0]) : std::string("-"), scatter ? "scatter" : "",
+                      g.note.empty() ? "" : (scatter ? "; " : "") + g.note);
+  }
   json j = {{"program", "flapstab"},
             {"command", "grid-convergence"},
             {"insect", in[0].insect},

@@ -466,7 +466,7 @@ struct ImmersedBoundary::Impl {
       // by the three it interpolates. The quadratic can overshoot them, and there the probes of the two parts'
       // bands sample each other's forced faces, so the overshoot is fed back stage after stage through this
       // Jacobi update: the fruit fly at 8 cells per chord blew up in its fourth wingbeat at the wing root (CFL
-      // 0.6 to 1.73 within ten steps). Bounded, the same run stays below CFL 0.93 for six wingbeats
+      // 0.65 to 1.73 within 13 steps). Bounded, the same run stays below CFL 0.93 for six wingbeats
       // (docs/validation.md). A part alone in the flow is not affected.
       if (opt.bound_contact_values && parts.size() > 1 &&
           (near_other_part(states, std::size_t(e.part), x + d1 * n, h) ||

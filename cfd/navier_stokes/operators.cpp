@@ -124,6 +124,13 @@ FLAPSTAB_KERNEL void project_plane(const Grid& g, int k, const VectorField& usta
   }
 }
 
+// sum_a max(|u_a| on the cell's two a-faces) / dx_a of cell n (inverse widths ixi, iyj, izk).
+inline real cell_rate(const Shape& s, const real* __restrict u0, const real* __restrict u1,
+                      const real* __restrict u2, std::ptrdiff_t n, real ixi, real iyj, real izk) {
+  return std::max(std::abs(u0[n]), std::abs(u0[n + 1])) * ixi + std::max(std::abs(u1[n]), std::abs(u1[n + s.sy])) * iyj +
+         std::max(std::abs(u2[n]), std::abs(u2[n + s.sz])) * izk;
+}
+
 FLAPSTAB_KERNEL double max_rate_plane(const Grid& g, int k, const VectorField& u) {
   const Shape s = g.shape();
   const real* __restrict ix = g.axis[0].idc.data();
@@ -133,13 +140,7 @@ FLAPSTAB_KERNEL double max_rate_plane(const Grid& g, int k, const VectorField& u
     const std::ptrdiff_t row = s(0, j, k);
     const real iyj = g.axis[1].idc[j], izk = g.axis[2].idc[k];
 #pragma omp simd reduction(max : m)
-    for (int i = 1; i <= s.nx; ++i) {
-      const std::ptrdiff_t n = row + i;
-      const real r = std::max(std::abs(u0[n]), std::abs(u0[n + 1])) * ix[i] +
-                     std::max(std::abs(u1[n]), std::abs(u1[n + s.sy])) * iyj +
-                     std::max(std::abs(u2[n]), std::abs(u2[n + s.sz])) * izk;
-      m = std::max(m, double(r));
-    }
+    for (int i = 1; i <= s.nx; ++i) m = std::max(m, double(cell_rate(s, u0, u1, u2, row + i, ix[i], iyj, izk)));
   }
   return m;
 }
@@ -268,12 +269,11 @@ RateLocation max_rate_location(const Grid& g, const VectorField& u) {
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {
-        const std::ptrdiff_t n = s(i, j, k);
-        const double r = std::max(std::abs(u[0].data()[n]), std::abs(u[0].data()[n + 1])) * g.axis[0].idc[i] +
-                         std::max(std::abs(u[1].data()[n]), std::abs(u[1].data()[n + s.sy])) * g.axis[1].idc[j] +
-                         std::max(std::abs(u[2].data()[n]), std::abs(u[2].data()[n + s.sz])) * g.axis[2].idc[k];
+        const double r = cell_rate(s, u[0].data(), u[1].data(), u[2].data(), s(i, j, k), g.axis[0].idc[i],
+                                   g.axis[1].idc[j], g.axis[2].idc[k]);
         if (!(r <= best.rate)) {  // NaN wins: it is where the flow broke
-          best = {i, j, k, Vec3(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]), r};
+          best = {i, j, k,
+                  Vec3(g.axis[0].xc[std::size_t(i)], g.axis[1].xc[std::size_t(j)], g.axis[2].xc[std::size_t(k)]), r};
           if (std::isnan(r)) return best;
         }
       }

@@ -3,17 +3,28 @@
 #include <string>
 
 #include "apps/cfd_study.hpp"
+#include "cfd/aero_factory.hpp"
+#include "cfd/derivatives.hpp"
 #include "core/case_file.hpp"
+#include "trim/trim.hpp"
 
 namespace flapstab {
 namespace {
 
-// A steady rate turns the body q T per wingbeat: the shipped fruit fly's pitch-rate step 0.05 U/c (U = 2 Phi n r2
-// = 1.312 m/s at its quasi-steady trim, c = 0.8 mm: 82.0 rad/s) at 218 Hz is 82.0 / 218 rad = 21.6 deg per
-// wingbeat, above the 5 deg the plan accepts; the step that gives 5 deg is 0.05 x 5 / 21.6 = 0.0116.
+// A steady rate turns the body q T per wingbeat: the shipped fruit fly's pitch-rate step (relative_step 0.05 of
+// U/c, with U = 2 Phi n r2 at its quasi-steady trim, about 1.31 m/s, and c = 0.8 mm: about 82 rad/s) at 218 Hz is
+// about 21.6 deg per wingbeat, above the 5 deg the plan accepts; 0.05 x 5 / 21.6 = 0.0116 gives 5 deg.
 TEST(CfdStudyPlan, WarnsWhenTheRateStepTurnsTheBodyMoreThanFiveDegreesPerWingbeat) {
   const Case c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/fruitfly_cfd.toml");
-  const double q = 0.05 * 1.31225068217043 / 0.8e-3;
+  Case qc = c;
+  qc.aero.model = "quasi-steady";
+  const auto model = make_aero_model(qc);
+  const TrimResult t = trim_hover(qc, *model);
+  ASSERT_TRUE(t.converged);
+  const ReferenceQuantities ref = reference_quantities(c.insect, t.kinematics, c.fluid);
+  const double q = c.derivatives.relative_step * ref.U / ref.c;
+  EXPECT_NEAR(q, 82.0, 0.1);
+  ASSERT_DOUBLE_EQ(t.kinematics.frequency_hz, 218.0);
   const auto w = rate_step_warning(c, q, 218.0);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("turns the body 21.6 deg per wingbeat"), std::string::npos) << *w;
