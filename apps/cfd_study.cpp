@@ -6,6 +6,7 @@
 #include <cmath>
 #include <ostream>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "apps/results_json.hpp"
 #include "cfd/aero_factory.hpp"
@@ -190,6 +191,48 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   // 4. CFD derivatives at the CFD trim, and the phase-resolved A(t) from the same runs.
   before = cfd.records().size();
   t = clock_type::now();
+  // The runs one by one first: one that fails (diverges) does not stop the others, so a rerun finds every other
+  // run finished (kept in the cache); the columns whose two runs finished are printed before the study stops.
+  {
+    const ReferenceQuantities ref = reference_quantities(c.insect, s.trim.kinematics, c.fluid);
+    std::vector<std::string> failed;
+    std::vector<int> finished;
+    for (int j : columns) {
+      bool ok = true;
+      for (int sign : {+1, -1}) {
+        try {
+          cfd.run(c.insect, s.trim.kinematics,
+                  derivative_perturbation(ref, c.derivatives.relative_step, c.derivatives.relative_rate_step, j, sign),
+                  AeroRunOptions{});
+        } catch (const SolveError& e) {
+          failed.push_back(e.what());
+          ok = false;
+          if (log) *log << "cfd study: " << e.what() << "; the study goes on with the other runs\n" << std::flush;
+        }
+      }
+      if (ok) finished.push_back(j);
+    }
+    if (!failed.empty()) {
+      std::string done;
+      if (!finished.empty()) {
+        // From the finished runs only (the model returns them without running again).
+        const DerivativeResult part = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid,
+                                                                 c.derivatives.relative_step, {}, finished,
+                                                                 c.derivatives.relative_rate_step);
+        for (int j : finished)
+          for (int i : {0, 1, 2, 3, 4, 5})
+            if ((j == 0 || j == 2 || j == 4) == (i == 0 || i == 2 || i == 4))  // the column's own plane
+              done += fmt::format("{}{} = {:+.4g}", done.empty() ? "" : ", ", derivative_name(i, j), part.table.nd(i, j));
+      }
+      throw SolveError(fmt::format(
+          "cfd study: {} of the {} derivative runs failed:\n  {}\nThe finished runs are kept in {}; a rerun of the same "
+          "command reuses them and resumes a failed run from its last whole wingbeat.{}",
+          failed.size(), 2 * columns.size(), fmt::join(failed, "\n  "), cache.empty() ? std::string("memory only") : cache,
+          done.empty() ? std::string()
+                       : fmt::format("\nNon-dimensional derivatives of the columns whose runs finished (no table is "
+                                     "written): {}", done)));
+    }
+  }
   s.derivatives = cycle_averaged_derivatives(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step,
                                              {}, columns, c.derivatives.relative_rate_step);
   s.derivatives.table.source = "flapstab CFD cycle-averaged derivatives (navier-stokes-ib), from the kept hover state";

@@ -46,6 +46,16 @@ std::vector<int> derivative_columns(const std::string& set) {
   throw SolveError("derivative_columns: unknown set \"" + set + "\" (all, longitudinal or lateral)");
 }
 
+BodyMotion derivative_perturbation(const ReferenceQuantities& ref, double relative_step, double relative_rate_step,
+                                   int column, int sign) {
+  if (column < 0 || column > 5) throw SolveError("derivatives: column index out of 0..5");
+  const double h = column < 3 ? relative_step * ref.U
+                              : (relative_rate_step > 0 ? relative_rate_step : relative_step) * ref.U / ref.c;
+  BodyMotion m;
+  (column < 3 ? m.velocity : m.rate)(column % 3) = sign < 0 ? -h : h;
+  return m;
+}
+
 namespace {
 
 bool has_columns(const std::vector<int>& columns, std::initializer_list<int> wanted) {
@@ -93,12 +103,8 @@ DerivativeResult cycle_averaged_derivatives(const AeroModel& model, const Insect
   out.si.setZero();
   for (int j : columns) {
     const double h = j < 3 ? out.velocity_step : out.rate_step;
-    BodyMotion plus, minus;
-    Vec3& p = j < 3 ? plus.velocity : plus.rate;
-    Vec3& q = j < 3 ? minus.velocity : minus.rate;
-    p(j % 3) = h;
-    q(j % 3) = -h;
-    const auto wp = mean(plus), wm = mean(minus);
+    const auto wp = mean(derivative_perturbation(ref, relative_step, relative_rate_step, j, +1)),
+               wm = mean(derivative_perturbation(ref, relative_step, relative_rate_step, j, -1));
     out.si.col(j) = (wp - wm) / (2 * h);
     Eigen::Matrix<double, 6, 1> w0;
     w0 << out.mean_at_trim.force, out.mean_at_trim.moment;
@@ -136,12 +142,10 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
   if (N < 3) throw SolveError("phase_resolved_from_runs: the model's wingbeat has fewer than 3 samples");
   std::vector<WrenchHistory> plus(6), minus(6);
   for (int j : columns) {
-    const double h = j < 3 ? out.velocity_step : out.rate_step;
-    BodyMotion p, m;
-    (j < 3 ? p.velocity : p.rate)(j % 3) = h;
-    (j < 3 ? m.velocity : m.rate)(j % 3) = -h;
-    plus[std::size_t(j)] = model.run(insect, kin, p, AeroRunOptions{});
-    minus[std::size_t(j)] = model.run(insect, kin, m, AeroRunOptions{});
+    plus[std::size_t(j)] = model.run(insect, kin, derivative_perturbation(ref, relative_step, relative_rate_step, j, +1),
+                                     AeroRunOptions{});
+    minus[std::size_t(j)] = model.run(insect, kin, derivative_perturbation(ref, relative_step, relative_rate_step, j, -1),
+                                      AeroRunOptions{});
     if (plus[std::size_t(j)].samples.size() != N || minus[std::size_t(j)].samples.size() != N)
       throw SolveError("phase_resolved_from_runs: the runs have different numbers of samples per wingbeat");
     out.load_evaluations += 2;

@@ -30,6 +30,12 @@ struct DerivativeResult {
 // "lateral" (v p r).
 std::vector<int> derivative_columns(const std::string& set);
 
+// The body motion of one derivative run: column j (0..5 = u v w p q r) stepped by sign (+1 or -1) times h U
+// (velocities) or h_r U / c (rates; h_r = relative_rate_step, or h where that is 0). The same values the functions
+// below use, so a model's runs made one by one are found again by them (the CFD model's run keys).
+BodyMotion derivative_perturbation(const ReferenceQuantities& ref, double relative_step, double relative_rate_step,
+                                   int column, int sign);
+
 // Central differences of the cycle-mean wrench about O with steps h U (velocities) and h_r U / c (rates; h_r =
 // relative_rate_step, or h where that is 0), for the
 // given columns (the others stay zero and the table's has_longitudinal / has_lateral / has_coupling say which

@@ -324,16 +324,38 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     plan.period = kin.period();
     plan.dt = plan.period / plan.steps_per_cycle;
     Simulation sim(c, kin, motion, plan);
-    sim.restore(st.hover_state, BodyMotion{});
     std::vector<std::vector<CfdLoadRow>> history;  // d at every phase, per wingbeat
-    for (int k = 1; k <= st.perturbed_settings.max_cycles; ++k) {
+    // A run interrupted (killed, or diverged) resumes from its last whole wingbeat: its state and its history so far
+    // are kept after every wingbeat beside the run's file, and removed when the run ends.
+    const std::string partial_json = file("run_" + run_key + ".partial.json"), partial_h5 = file("run_" + run_key + ".partial.h5");
+    double earlier_seconds = 0;
+    bool resumed = false;
+    if (const auto part = cache_.empty() ? std::nullopt : read_json(partial_json, run_key); part && fs::exists(partial_h5)) {
+      const CheckpointReader ck(partial_h5);
+      SimulationState saved = read_state(ck, plan_grid(plan).shape());
+      if (saved.step == part->at("step").get<long>()) {
+        sim.restore(saved);
+        for (const auto& h : part->at("history")) history.push_back(rows_from(h));
+        rec.cycles = cycles_from(part->at("cycles"));
+        earlier_seconds = part->at("wall_s").get<double>();
+        resumed = true;
+        say(fmt::format("  resumed after its wingbeat {} from {}\n", history.size(), partial_h5));
+      } else {  // killed between the two writes
+        say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; the run starts again from "
+                        "the hover\n", partial_h5, saved.step, partial_json, part->at("step").get<long>()));
+      }
+    }
+    if (!resumed) sim.restore(st.hover_state, BodyMotion{});
+    for (int k = int(history.size()) + 1; k <= st.perturbed_settings.max_cycles; ++k) {
       std::vector<CfdLoadRow> rows;
       try {
         for (int i = 0; i < n; ++i) rows.push_back(sim.advance().row);
       } catch (const StepFailure& e) {
         throw SolveError(fmt::format("cfd model: run {} ({}) diverged in its wingbeat {} (step {}): {}; lower the time "
-                                     "step (aero.cfd.steps_per_cycle) or the perturbation", number, label, k, e.step(),
-                                     e.why()));
+                                     "step (aero.cfd.steps_per_cycle) or the perturbation{}", number, label, k, e.step(),
+                                     e.why(), k > 1 && !cache_.empty()
+                                                  ? fmt::format(" (its state after wingbeat {} is kept in {})", k - 1, partial_h5)
+                                                  : std::string()));
       }
       // The reference at the same wingbeat.
       while (int(st.ref_cycles.size()) < k) {
@@ -398,8 +420,19 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         rec.converged = true;
         break;
       }
+      if (!cache_.empty() && k < st.perturbed_settings.max_cycles) {
+        fs::create_directories(cache_);
+        write_state(partial_h5, sim.state(), {}, {{"key", run_key}});
+        nlohmann::json hj = nlohmann::json::array();
+        for (const auto& h : history) hj.push_back(rows_json(h));
+        write_file_atomic(partial_json, nlohmann::json{{"key", run_key}, {"cycles", cycles_json(rec.cycles)},
+                                                       {"history", hj}, {"step", sim.step()},
+                                                       {"wall_s", earlier_seconds + std::chrono::duration<double>(
+                                                                                        clock_type::now() - t0).count()}}
+                                                .dump(1) + "\n");
+      }
     }
-    rec.wall_seconds = std::chrono::duration<double>(clock_type::now() - t0).count();
+    rec.wall_seconds = earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count();
     if (!rec.converged)
       say(fmt::format("  warning: run {} did not converge in {} wingbeats (last change {:.3g} of the weight, "
                       "perturbation_tolerance {:g})\n", number, rec.cycles.size(), rec.final_change(),
@@ -410,6 +443,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       nlohmann::json j = {{"key", run_key}, {"label", label}, {"cycles", cycles_json(rec.cycles)},
                           {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)}};
       write_file_atomic(run_file, j.dump(1) + "\n");
+      std::error_code ec;
+      fs::remove(partial_json, ec);
+      fs::remove(partial_h5, ec);
     }
   }
   st.records.push_back(rec);

@@ -388,6 +388,28 @@ struct ImmersedBoundary::Impl {
     return false;
   }
 
+  // The part other than `self` whose effective surface is nearest to x (a face of local width h): its index, the
+  // distance phi to that surface (membranes: less their half thickness; negative inside) and the unit normal
+  // pointing from the surface to x. false if no other part's lattice gives a direction there.
+  bool nearest_other_surface(const std::vector<PartState>& states, std::size_t self, const Vec3& x, double h,
+                             std::size_t& which, double& phi_out, Vec3& normal) const {
+    bool found = false;
+    for (std::size_t k = 0; k < parts.size(); ++k) {
+      if (k == self) continue;
+      const Part& q = parts[k];
+      const Vec3 y = states[k].pose.apply_inverse(x);
+      const double v = q.ls.at(y) - (q.mesh.membrane ? opt.membrane_half_thickness * h : 0.0);
+      if (found && v >= phi_out) continue;
+      Vec3 g = states[k].pose.rotation * q.ls.gradient(y);
+      if (!(g.norm() > 1e-6)) continue;
+      which = k;
+      phi_out = v;
+      normal = g.normalized();
+      found = true;
+    }
+    return found;
+  }
+
   // Decodes an entry's component and indices.
   void decode(std::int64_t key, int& d, int& i, int& j, int& k) const {
     const Shape s = grid.shape();
@@ -462,16 +484,26 @@ struct ImmersedBoundary::Impl {
       const double l0 = (ph - p1) * (ph - p2) / (p1 * p2), l1 = ph * (ph - p2) / (p1 * (p1 - p2)),
                    l2 = ph * (ph - p1) / (p2 * (p2 - p1));
       values[m] = l0 * vs + l1 * u1 + l2 * u2;
-      // Where a probe reaches into another part's band (a wing root sweeping past the body), the value is bounded
-      // by the three it interpolates. The quadratic can overshoot them, and there the probes of the two parts'
-      // bands sample each other's forced faces, so the overshoot is fed back stage after stage through this
-      // Jacobi update: the fruit fly at 8 cells per chord blew up in its fourth wingbeat at the wing root (CFL
-      // 0.65 to 1.73 within 13 steps). Bounded, the same run stays below CFL 0.93 for six wingbeats
-      // (docs/validation.md). A part alone in the flow is not affected.
-      if (opt.bound_contact_values && parts.size() > 1 &&
+      // Where a probe reaches into another part's band (a wing root sweeping past the body), the probes of the two
+      // parts' bands sample each other's forced faces, so whatever one forcing sets is read back by the other,
+      // stage after stage through this Jacobi update; the quadratic can also overshoot the values it interpolates.
+      // Unbounded, the fruit fly at 8 cells per chord blew up in its fourth wingbeat at the wing root (CFL 0.65 to
+      // 1.73 within 13 steps); bounded by the three values, later in other runs (docs/validation.md). The gap
+      // treatment reads no fluid value there: the face takes the linear profile between the two surfaces.
+      if (opt.contact != ImmersedOptions::Contact::quadratic && parts.size() > 1 &&
           (near_other_part(states, std::size_t(e.part), x + d1 * n, h) ||
-           near_other_part(states, std::size_t(e.part), x + d2 * n, h)))
-        values[m] = std::clamp(values[m], std::min({vs, u1, u2}), std::max({vs, u1, u2}));
+           near_other_part(states, std::size_t(e.part), x + d2 * n, h))) {
+        std::size_t q = 0;
+        double phq = 0;
+        Vec3 nq;
+        if (opt.contact == ImmersedOptions::Contact::gap && nearest_other_surface(states, std::size_t(e.part), x, h, q, phq, nq)) {
+          const double vq = states[q].velocity.at(x - phq * nq)[d];
+          phq = std::max(phq, 0.0);
+          values[m] = ph + phq > 0 ? (phq * vs + ph * vq) / (ph + phq) : 0.5 * (vs + vq);
+        } else {
+          values[m] = std::clamp(values[m], std::min({vs, u1, u2}), std::max({vs, u1, u2}));
+        }
+      }
     }
     // Momentum exchange (Uhlmann 2005): the forcing adds rho (u_forced - u*) dV per stage of length alpha dt to
     // the fluid; the fictitious fluid inside a part (solid faces) is accelerated with the part, which takes
@@ -571,7 +603,7 @@ struct ImmersedBoundary::Impl {
       const double dist = opt.probe_near * h - double(cells[m].phi);  // from the cell centre to the probe
       const Vec3 probe = x + dist * nrm;
       const Vec3 a = st.acceleration_at(x);
-      newp[m] = sample_fluid_pressure(p, q, st.pose, probe) + dist * a.dot(nrm);
+      newp[m] = sample_fluid_pressure(p, stage_states, ip, probe) + dist * a.dot(nrm);
     }
     for (std::size_t m = 0; m < cells.size(); ++m)
       if (!std::isnan(newp[m])) p[std::ptrdiff_t(cells[m].key - base)] = newp[m];
@@ -582,7 +614,13 @@ struct ImmersedBoundary::Impl {
   // resets those faces every stage, so the projections keep adding to it (it grows linearly in time where
   // mass leaks through the interface, see the theory notes); it never enters the fluid's momentum but must
   // not enter the loads.
-  double sample_fluid_pressure(const Field& pr, const Part& part, const RigidTransform& pose, const Vec3& x) const {
+  // Parts in contact (contact != quadratic): a cell inside or near another part (its interior pressure is as
+  // unphysical as this part's) counts by the lowest of the parts' level sets, so a probe near the wing root that
+  // falls into the body reads the fluid's pressure only.
+  double sample_fluid_pressure(const Field& pr, const std::vector<PartState>& states, std::size_t ip, const Vec3& x) const {
+    const Part& part = parts[ip];
+    const RigidTransform& pose = states[ip].pose;
+    const bool all_parts = opt.contact != ImmersedOptions::Contact::quadratic && parts.size() > 1;
     int I[3];
     double W[3];
     for (int a = 0; a < 3; ++a) {
@@ -599,7 +637,12 @@ struct ImmersedBoundary::Impl {
       const double h = std::max({hcell[0][std::size_t(i)], hcell[1][std::size_t(j)], hcell[2][std::size_t(k)]});
       // Weight ramps from 0 at phi = 0.75 h (below it a cell can have all its faces forced) to 1 at 1.5 h, so
       // that the sample changes smoothly as a moving part crosses the cells.
-      const double m = std::clamp((phi(part, pose, Vec3(xc[0], xc[1], xc[2]), h) - 0.75 * h) / (0.75 * h), 0.0, 1.0);
+      const Vec3 X(xc[0], xc[1], xc[2]);
+      double ph = phi(part, pose, X, h);
+      if (all_parts)
+        for (std::size_t k = 0; k < parts.size(); ++k)
+          if (k != ip) ph = std::min(ph, phi(parts[k], states[k].pose, X, h));
+      const double m = std::clamp((ph - 0.75 * h) / (0.75 * h), 0.0, 1.0);
       v += m * w * pr(i, j, k);
       wsum += m * w;
     }
@@ -612,7 +655,8 @@ struct ImmersedBoundary::Impl {
   template <class F>
   void visit(const Solver& sv, int ip, F&& f) const {
     const Part& p = parts[std::size_t(ip)];
-    const PartState st = states_now(sv.time())[std::size_t(ip)];
+    const std::vector<PartState> states = states_now(sv.time());
+    const PartState& st = states[std::size_t(ip)];
     const VectorField& u = sv.velocity();
     const Field& pr = sv.pressure();
     const int sides = p.mesh.membrane ? 2 : 1;
@@ -628,7 +672,8 @@ struct ImmersedBoundary::Impl {
         const Vec3 x1 = xs + d1 * ns, x2 = xs + d2 * ns;
         // Wall pressure: the quadratic through the two probes with the wall-normal momentum balance
         // dp/dn = -a.n (kinematic) at the wall, p(d) = p_w - (a.n) d + c d^2.
-        const double p1 = sample_fluid_pressure(pr, p, st.pose, x1), p2 = sample_fluid_pressure(pr, p, st.pose, x2);
+        const double p1 = sample_fluid_pressure(pr, states, std::size_t(ip), x1),
+                     p2 = sample_fluid_pressure(pr, states, std::size_t(ip), x2);
         const double slope = -a.dot(ns);
         const double curv = ((p2 - p1) - slope * (d2 - d1)) / (d2 * d2 - d1 * d1);
         const double pwall = p1 - slope * d1 - curv * d1 * d1;

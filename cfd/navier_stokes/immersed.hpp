@@ -62,10 +62,15 @@ struct ImmersedOptions {
   double lattice_refinement = 2.0;       // lattice spacing = finest local grid spacing / this
   double probe_near = 1.5;               // probe distances, local cell widths: loads from the (effective) surface,
   double probe_far = 2.5;                // the band's quadratic from the forced face
-  // A band value whose probes reach into another part's band is bounded by the values it interpolates (the
-  // surface velocity and the two probes): without the bound, two parts' bands feeding each other's quadratic
-  // overshoot can blow up (a wing root against the body). false: the unbounded quadratic everywhere.
-  bool bound_contact_values = true;
+  // Band faces whose probes reach into another part's band or inside it (a wing root sweeping past the body):
+  //  - gap (default): the value is interpolated linearly between the two parts' surface velocities, by the face's
+  //    distances to the two effective surfaces (the Couette profile of an unresolved gap); no fluid value is read,
+  //    so the two parts' forcings cannot feed each other;
+  //  - bounded: the quadratic through the surface velocity and the two probes, bounded by those three values;
+  //  - quadratic: the quadratic as everywhere else (the forcing before contact was treated).
+  // A part alone in the flow is not affected by this choice.
+  enum class Contact { gap, bounded, quadratic };
+  Contact contact = Contact::gap;
 };
 
 // Loads of one part on the fluid's side: force and moment the fluid exerts on the part (grid axes).

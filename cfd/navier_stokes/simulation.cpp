@@ -84,7 +84,7 @@ struct Simulation::Impl : StageHooks {
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
       const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
-      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho, .bound_contact_values = o.bound_contact_values});
+      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho, .contact = o.contact});
       const auto start = motion.parts(0.0);
       for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
       exchange = c.aero.cfd.loads == "exchange";

@@ -30,7 +30,7 @@ namespace flapstab::ns {
 struct SimulationOptions {
   bool bodies = true;  // false: a body-free flow in the same box (solver checks, tests)
   std::function<Vec3(double x, double y, double z)> initial_velocity;  // default: the uniform stream -V
-  bool bound_contact_values = true;  // ImmersedOptions::bound_contact_values (false: the earlier, unbounded forcing)
+  ImmersedOptions::Contact contact = ImmersedOptions::Contact::gap;  // where two parts meet (ImmersedOptions::contact)
 };
 
 // Everything a step depends on (one checkpoint schema): restoring it continues the run bit for bit.

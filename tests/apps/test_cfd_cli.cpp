@@ -275,16 +275,19 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
   };
   const std::string err_whole = write_temp("cfd_resume_whole.txt", "");
   ASSERT_EQ(WEXITSTATUS(run(whole, err_whole)), 0);
-  // Kill the second analysis (SIGKILL: no chance to tidy up) once two perturbed runs are finished.
+  // Kill the second analysis (SIGKILL: no chance to tidy up) once two perturbed runs are finished and a third has
+  // kept a whole wingbeat (run_*.partial.json): the rerun resumes that run from it.
   const std::string err_killed = write_temp("cfd_resume_killed.txt", ""), count = write_temp("cfd_resume_n.txt", "");
+  const std::string runs = (killed / "cfd_runs").string();
   const std::string script =
       std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + killed.string() + " > /dev/null 2> " + err_killed +
-      " & pid=$!; for i in $(seq 3000); do n=$(ls " + (killed / "cfd_runs").string() +
-      "/run_*.json 2>/dev/null | wc -l); [ $n -ge 2 ] && break; sleep 0.05; done; kill -KILL $pid; wait $pid; "
-      "ls " + (killed / "cfd_runs").string() + "/run_*.json | wc -l > " + count;
+      " & pid=$!; for i in $(seq 3000); do n=$(ls " + runs + "/run_*.json 2>/dev/null | grep -vc partial); "
+      "m=$(ls " + runs + "/run_*.partial.json 2>/dev/null | wc -l); [ $n -ge 2 ] && [ $m -ge 1 ] && break; "
+      "sleep 0.02; done; kill -KILL $pid; wait $pid; (ls " + runs + "/run_*.json | grep -vc partial; ls " + runs +
+      "/run_*.partial.json 2>/dev/null | wc -l) > " + count;
   ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0);
-  int finished = 0;
-  std::ifstream(count) >> finished;
+  int finished = 0, partial = 0;
+  std::ifstream(count) >> finished >> partial;
   ASSERT_GE(finished, 2);
   ASSERT_LT(finished, 6) << "the analysis finished before it was killed";
   EXPECT_FALSE(fs::exists(killed / "results.json"));
@@ -298,6 +301,12 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
   for (std::size_t at = ss.str().find(") reused from"); at != std::string::npos; at = ss.str().find(") reused from", at + 1))
     ++reused;
   EXPECT_GE(reused, std::size_t(finished));
+  if (partial > 0) {
+    EXPECT_NE(ss.str().find("resumed after its wingbeat"), std::string::npos) << ss.str();
+  }
+  EXPECT_TRUE(fs::directory_iterator(killed / "cfd_runs") != fs::directory_iterator{});
+  for (const auto& f : fs::directory_iterator(killed / "cfd_runs"))
+    EXPECT_EQ(f.path().string().find(".partial."), std::string::npos) << "left behind: " << f.path();
   auto results = [](const fs::path& dir) { return nlohmann::json::parse(std::ifstream(dir / "results.json")); };
   const nlohmann::json a = results(whole), b = results(killed);
   ASSERT_TRUE(a.contains("derivatives"));

@@ -778,12 +778,12 @@ TEST(CfdSimulation, RestoredStateContinuesBitForBit) {
 // the earlier build, tests/data/cfd): the only change is that the parts' accelerations are analytic instead of
 // central differences over 0.05 of a stage, an O(eps^2) difference. Tolerance 1e-7 of the largest force
 // (measured 1.5e-9); a changed load or sign would show at the loads' own size. The earlier build had no bound on
-// the band values where two parts meet (ImmersedOptions::bound_contact_values), so it is off here; with it the
+// the band values where two parts meet (ImmersedOptions::contact), so it is off here; with it the
 // loads of this tiny moth differ by up to 0.25 % of the largest force (the wing roots against the body).
 TEST(CfdSimulation, LoadsMatchTheDriverBeforeTheSplit) {
   const Case c = cfd_case("moth_restart.toml", tiny_moth_keys);
   SimulationOptions unbounded;
-  unbounded.bound_contact_values = false;
+  unbounded.contact = ImmersedOptions::Contact::quadratic;
   Simulation sim(c, c.kinematics, BodyMotion{}, plan_cfd(c, c.kinematics, BodyMotion{}), unbounded);
   std::ifstream in(std::string(FLAPSTAB_SOURCE_DIR) + "/tests/data/cfd/tiny_moth_forces_before_split.csv");
   ASSERT_TRUE(in.good());
