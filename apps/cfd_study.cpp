@@ -194,24 +194,15 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   // The runs one by one first: one that fails (diverges) does not stop the others, so a rerun finds every other
   // run finished (kept in the cache); the columns whose two runs finished are printed before the study stops.
   {
-    const ReferenceQuantities ref = reference_quantities(c.insect, s.trim.kinematics, c.fluid);
+    const std::vector<DerivativeRunFailure> failures =
+        make_derivative_runs(cfd, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step,
+                             c.derivatives.relative_rate_step, columns, log);
     std::vector<std::string> failed;
     std::vector<int> finished;
-    for (int j : columns) {
-      bool ok = true;
-      for (int sign : {+1, -1}) {
-        try {
-          cfd.run(c.insect, s.trim.kinematics,
-                  derivative_perturbation(ref, c.derivatives.relative_step, c.derivatives.relative_rate_step, j, sign),
-                  AeroRunOptions{});
-        } catch (const SolveError& e) {
-          failed.push_back(e.what());
-          ok = false;
-          if (log) *log << "cfd study: " << e.what() << "; the study goes on with the other runs\n" << std::flush;
-        }
-      }
-      if (ok) finished.push_back(j);
-    }
+    for (const auto& f : failures) failed.push_back(f.message);
+    for (int j : columns)
+      if (std::none_of(failures.begin(), failures.end(), [j](const DerivativeRunFailure& f) { return f.column == j; }))
+        finished.push_back(j);
     if (!failed.empty()) {
       std::string done;
       if (!finished.empty()) {

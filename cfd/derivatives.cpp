@@ -56,6 +56,24 @@ BodyMotion derivative_perturbation(const ReferenceQuantities& ref, double relati
   return m;
 }
 
+std::vector<DerivativeRunFailure> make_derivative_runs(const AeroModel& model, const Insect& insect,
+                                                       const Kinematics& kin, const FluidProperties& fluid,
+                                                       double relative_step, double relative_rate_step,
+                                                       const std::vector<int>& columns, std::ostream* log) {
+  const ReferenceQuantities ref = reference_quantities(insect, kin, fluid);
+  std::vector<DerivativeRunFailure> failed;
+  for (int j : columns)
+    for (int sign : {+1, -1}) {
+      try {
+        model.run(insect, kin, derivative_perturbation(ref, relative_step, relative_rate_step, j, sign), AeroRunOptions{});
+      } catch (const SolveError& e) {
+        failed.push_back({j, sign, e.what()});
+        if (log) *log << "derivatives: " << e.what() << "; the other runs go on\n" << std::flush;
+      }
+    }
+  return failed;
+}
+
 namespace {
 
 bool has_columns(const std::vector<int>& columns, std::initializer_list<int> wanted) {

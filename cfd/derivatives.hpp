@@ -1,5 +1,6 @@
 // Cycle-averaged stability derivatives over any AeroModel, by central differences in u, v, w, p, q, r.
 #pragma once
+#include <ostream>
 #include "core/aero_model.hpp"
 #include "core/case_file.hpp"
 #include "cfd/phase_derivatives.hpp"
@@ -35,6 +36,20 @@ std::vector<int> derivative_columns(const std::string& set);
 // below use, so a model's runs made one by one are found again by them (the CFD model's run keys).
 BodyMotion derivative_perturbation(const ReferenceQuantities& ref, double relative_step, double relative_rate_step,
                                    int column, int sign);
+
+// One derivative run that failed: its column, its sign and the model's message.
+struct DerivativeRunFailure {
+  int column = 0, sign = 0;
+  std::string message;
+};
+// Makes every run of the given columns once, in table order (u+, u-, w+, ...), and goes on past a run that throws
+// SolveError (a CFD run that diverged): the model keeps the runs that finished (the CFD model in memory and in its
+// cache), so cycle_averaged_derivatives over the columns whose two runs finished then runs nothing new, and a rerun
+// of a study repeats only the failed runs. Returns the failures (empty: every run finished).
+std::vector<DerivativeRunFailure> make_derivative_runs(const AeroModel& model, const Insect& insect,
+                                                       const Kinematics& kin, const FluidProperties& fluid,
+                                                       double relative_step, double relative_rate_step,
+                                                       const std::vector<int>& columns, std::ostream* log = nullptr);
 
 // Central differences of the cycle-mean wrench about O with steps h U (velocities) and h_r U / c (rates; h_r =
 // relative_rate_step, or h where that is 0), for the

@@ -111,6 +111,53 @@ TEST(Derivatives, RateColumnsTakeTheirOwnStep) {
   EXPECT_NEAR(ph.rate_step, d.rate_step, 1e-12 * d.rate_step);
 }
 
+// A model whose w+ run fails (as a CFD run that diverges): make_derivative_runs goes on with the other runs, in
+// table order, and reports the one failure; the derivatives of the finished columns then come from runs the model
+// has already made (here: the quasi-steady model's answers, the same numbers as in the whole table).
+class FailingRun final : public AeroModel {
+ public:
+  explicit FailingRun(const AeroModel& inner) : inner_(inner) {}
+  std::string name() const override { return "failing"; }
+  WrenchHistory run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
+                    const AeroRunOptions& options) const override {
+    calls.push_back(motion);
+    if (motion.velocity.z() > 0) throw SolveError("run w+ diverged");
+    return inner_.run(insect, kin, motion, options);
+  }
+  mutable std::vector<BodyMotion> calls;
+
+ private:
+  const AeroModel& inner_;
+};
+
+TEST(Derivatives, AFailedRunDoesNotStopTheOthers) {
+  const Trimmed& tr = trimmed_case();
+  const FailingRun model(*tr.model);
+  const std::vector<int> cols = derivative_columns("longitudinal");
+  const auto failures = make_derivative_runs(model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, 0.003, cols);
+  ASSERT_EQ(model.calls.size(), 6u);
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].column, 2);
+  EXPECT_EQ(failures[0].sign, +1);
+  EXPECT_EQ(failures[0].message, "run w+ diverged");
+  // The runs are the ones cycle_averaged_derivatives makes (same motions, bit for bit, so a model that keeps its
+  // runs finds them again): u+, u-, w+, w-, q+, q-.
+  const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {}, cols, 0.003);
+  const double hv = d.velocity_step, hr = d.rate_step;
+  const Vec3 v[6] = {Vec3(hv, 0, 0), Vec3(-hv, 0, 0), Vec3(0, 0, hv), Vec3(0, 0, -hv), Vec3::Zero(), Vec3::Zero()};
+  const Vec3 w[6] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3(0, hr, 0), Vec3(0, -hr, 0)};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(model.calls[std::size_t(k)].velocity, v[k]) << k;
+    EXPECT_EQ(model.calls[std::size_t(k)].rate, w[k]) << k;
+  }
+  model.calls.clear();
+  EXPECT_THROW(cycle_averaged_derivatives(model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {}, cols, 0.003),
+               SolveError);
+  const auto part = cycle_averaged_derivatives(model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01, {}, {0, 4}, 0.003);
+  EXPECT_EQ(part.table.at("Xu"), d.table.at("Xu"));
+  EXPECT_EQ(part.table.at("Mq"), d.table.at("Mq"));
+}
+
 TEST(Derivatives, NondimensionalScaling) {
   const Trimmed& tr = trimmed_case();
   const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
