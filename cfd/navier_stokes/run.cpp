@@ -8,9 +8,11 @@
 #include <fstream>
 #include <optional>
 #include <ostream>
+#include <sstream>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <omp.h>
+#include <toml++/toml.h>
 
 #include "cfd/navier_stokes/io_hdf5.hpp"
 #include "cfd/navier_stokes/observers.hpp"
@@ -23,7 +25,17 @@ namespace flapstab::ns {
 
 namespace fs = std::filesystem;
 
-std::string case_hash(const std::string& path) { return fnv1a64_file(path); }
+std::string case_hash(const std::string& path) {
+  try {
+    toml::table t = toml::parse_file(path);
+    for (const char* k : {"trim", "derivatives", "flight", "control", "output"}) t.erase(k);
+    std::ostringstream os;
+    os << t;
+    return fnv1a64_hex(os.str());
+  } catch (const std::exception&) {
+    return fnv1a64_file(path);
+  }
+}
 
 namespace {
 

@@ -82,7 +82,12 @@ std::string cfd_run_result_text(const CfdRunResult& r);
 // the last checkpoint; the message gives step and time).
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& options);
 
-// FNV-1a 64 of a file's bytes as 16 hex digits (the case hash in checkpoints).
+// The case hash in checkpoints and in the CFD model's kept runs (16 hex digits, FNV-1a 64): of the case file's
+// content that the flow depends on, i.e. the TOML document without the tables that only say what is done with the
+// runs ([trim], [derivatives], [flight], [control], [output]; a trim's result enters the runs' keys through the
+// kinematics instead), re-serialised, so comments, layout and those tables can change without invalidating kept
+// hover states, runs and checkpoints. A file that does not parse hashes by its bytes. Files the case refers to
+// (tables, kinematics files) are not part of it.
 std::string case_hash(const std::string& path);
 
 }  // namespace flapstab::ns

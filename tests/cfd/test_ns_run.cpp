@@ -149,6 +149,29 @@ TEST(CfdPlan, UnderResolvedChordIsAnErrorBelowFourCellsAndAWarningBelowEight) {
 
 // One header row with the units in the column names: pandas.read_csv(path) and csv.DictReader read it with no
 // options (axes and parts are described in run.json).
+// The case hash (checkpoints, the CFD model's kept runs) covers what the flow depends on: a comment, a changed
+// derivative step or output directory keep it; a changed Reynolds number, grid or wing does not.
+TEST(CfdRun, CaseHashIgnoresCommentsAndTheTablesTheFlowDoesNotDependOn) {
+  using flapstab::testing::valid_case_text;
+  using flapstab::testing::write_temp;
+  const std::string base = valid_case_text() + "\n[aero.cfd]\ncells_per_chord = 8\n";
+  auto hash = [](const std::string& name, const std::string& text) { return case_hash(write_temp(name, text)); };
+  const std::string h0 = hash("hash0.toml", base);
+  EXPECT_EQ(hash("hash1.toml", "# a comment\n" + base + "# another\n"), h0);
+  EXPECT_EQ(hash("hash2.toml", base + "\n[derivatives]\nrelative_step = 0.02\n[output]\ndirectory = \"elsewhere\"\n"), h0);
+  EXPECT_NE(hash("hash3.toml", valid_case_text() + "\n[aero.cfd]\ncells_per_chord = 12\n"), h0);
+  EXPECT_NE(hash("hash4.toml", base + "reynolds = 150\n"), h0);
+  std::string other = base;
+  other.replace(other.find("mean_chord_m = 0.01826"), 22, "mean_chord_m = 0.01827");
+  EXPECT_NE(hash("hash5.toml", other), h0);
+  // Values are re-serialised exactly (17 significant digits): a change in the 14th digit counts.
+  other = base;
+  other.replace(other.find("mass_kg = 1.554e-3"), 18, "mass_kg = 1.5540000000001e-3");
+  EXPECT_NE(hash("hash8.toml", other), h0);
+  // Not TOML: the bytes.
+  EXPECT_NE(hash("hash6.toml", "not toml ["), hash("hash7.toml", "not toml [["));
+}
+
 TEST(CfdRun, ForcesCsvHasOneHeaderRowWithUnitsInTheColumnNames) {
   const std::string h = forces_csv_header();
   ASSERT_EQ(std::count(h.begin(), h.end(), '\n'), 1);
@@ -523,7 +546,14 @@ TEST(CfdRun, RestartRefusesAChangedCaseOrAnEmptyDirectory) {
   run_cfd(c, c.kinematics, BodyMotion{}, o);
   o.stop_after_steps = 0;
   o.restart = true;
-  std::ofstream(path, std::ios::app) << "# edited\n";
+  {  // a change the flow depends on (a comment alone would not count: CaseHashIgnoresComments...)
+    std::stringstream text;
+    text << std::ifstream(path).rdbuf();
+    std::string t = text.str();
+    ASSERT_NE(t.find("mass_kg = 1.554e-3"), std::string::npos);
+    t.replace(t.find("mass_kg = 1.554e-3"), 18, "mass_kg = 1.555e-3");
+    std::ofstream(path) << t;
+  }
   EXPECT_THROW(run_cfd(c, c.kinematics, BodyMotion{}, o), InputError);
   o.directory = fresh_dir("empty");
   EXPECT_THROW(run_cfd(c, c.kinematics, BodyMotion{}, o), InputError);
