@@ -132,11 +132,15 @@ LevelSet build_level_set(const TriangleMesh& mesh, double spacing, double margin
   LevelSet ls;
   ls.h = spacing;
   ls.cap = margin;
-  ls.origin = b.lo - Vec3::Constant(margin);
   std::size_t total = 1;
   for (int a = 0; a < 3; ++a) {
     ls.n[a] = int(std::ceil((b.hi[a] - b.lo[a] + 2 * margin) / spacing)) + 1;
     ls.n[a] = std::max(ls.n[a], 2);
+    // Centred on the box: a part symmetric about a plane of its frame (the body about its x-z plane) gets a
+    // lattice symmetric about that plane, so its interpolated level set is symmetric too. Anchored at the box's
+    // low corner, the lattice's nodes were offset on one side only, and the mirror-image faces of a symmetric
+    // insect saw level sets differing by the interpolation error.
+    ls.origin[a] = 0.5 * (b.lo[a] + b.hi[a]) - 0.5 * (ls.n[a] - 1) * spacing;
     total *= std::size_t(ls.n[a]);
     if (total > max_lattice_points)
       throw std::invalid_argument("immersed boundary: the level-set lattice of part '" + mesh.label + "' would exceed " +
@@ -388,26 +392,35 @@ struct ImmersedBoundary::Impl {
     return false;
   }
 
-  // The part other than `self` whose effective surface is nearest to x (a face of local width h): its index, the
-  // distance phi to that surface (membranes: less their half thickness; negative inside) and the unit normal
-  // pointing from the surface to x. false if no other part's lattice gives a direction there.
-  bool nearest_other_surface(const std::vector<PartState>& states, std::size_t self, const Vec3& x, double h,
-                             std::size_t& which, double& phi_out, Vec3& normal) const {
-    bool found = false;
+  // The nearest effective surface of the parts other than `self` seen from x (a face of local width h): the
+  // distance phi to it (membranes: less their half thickness; negative inside) and the d-component of that
+  // surface's velocity at the point nearest x. Parts whose surfaces are equally near (within 1e-9 h: a face on
+  // a plane of mirror symmetry between the two wings' roots) share the velocity equally, so the choice does not
+  // depend on the order of the parts and a mirror-symmetric flow stays symmetric. false if no other part's
+  // lattice gives a direction there.
+  bool nearest_other_surface(const std::vector<PartState>& states, std::size_t self, const Vec3& x, double h, int d,
+                             double& phi_out, double& velocity_out) const {
+    double best = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, double>> near;  // (distance, velocity component) of each candidate part
     for (std::size_t k = 0; k < parts.size(); ++k) {
       if (k == self) continue;
       const Part& q = parts[k];
       const Vec3 y = states[k].pose.apply_inverse(x);
       const double v = q.ls.at(y) - (q.mesh.membrane ? opt.membrane_half_thickness * h : 0.0);
-      if (found && v >= phi_out) continue;
-      Vec3 g = states[k].pose.rotation * q.ls.gradient(y);
+      if (v > best + 1e-9 * h) continue;
+      const Vec3 g = states[k].pose.rotation * q.ls.gradient(y);
       if (!(g.norm() > 1e-6)) continue;
-      which = k;
-      phi_out = v;
-      normal = g.normalized();
-      found = true;
+      best = std::min(best, v);
+      near.emplace_back(v, states[k].velocity.at(x - v * g.normalized())[d]);
     }
-    return found;
+    if (near.empty()) return false;
+    double sum = 0;
+    int count = 0;
+    for (const auto& [v, u] : near)
+      if (v <= best + 1e-9 * h) sum += u, ++count;
+    phi_out = best;
+    velocity_out = sum / count;
+    return true;
   }
 
   // Decodes an entry's component and indices.
@@ -493,11 +506,8 @@ struct ImmersedBoundary::Impl {
       if (opt.contact != ImmersedOptions::Contact::quadratic && parts.size() > 1 &&
           (near_other_part(states, std::size_t(e.part), x + d1 * n, h) ||
            near_other_part(states, std::size_t(e.part), x + d2 * n, h))) {
-        std::size_t q = 0;
-        double phq = 0;
-        Vec3 nq;
-        if (opt.contact == ImmersedOptions::Contact::gap && nearest_other_surface(states, std::size_t(e.part), x, h, q, phq, nq)) {
-          const double vq = states[q].velocity.at(x - phq * nq)[d];
+        double phq = 0, vq = 0;
+        if (opt.contact == ImmersedOptions::Contact::gap && nearest_other_surface(states, std::size_t(e.part), x, h, d, phq, vq)) {
           phq = std::max(phq, 0.0);
           values[m] = ph + phq > 0 ? (phq * vs + ph * vq) / (ph + phq) : 0.5 * (vs + vq);
         } else {
