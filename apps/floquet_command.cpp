@@ -272,6 +272,12 @@ json floquet_json(const Case& c, const FloquetStudy& s) {
   j["cyclic_trim"].update(json{
       {"initial_state", {{"u_m_s", x0(3)}, {"w_m_s", x0(5)}, {"q_rad_s", x0(7)}, {"theta_rad", x0(10)}}},
       {"mean_theta_rad", ct.mean_theta},
+      {"attitude", ct.free_attitude ? "free" : "imposed"},
+      {"mean_body_angle_deg", ct.mean_body_angle / deg},
+      {"attitude_note", ct.free_attitude
+                            ? "[trim] cyclic_attitude = \"free\": body_angle_deg held at the averaged trim's value, "
+                              "the orbit's mean pitch theta its own; mean attitude = body angle + mean theta"
+                            : "the orbit's mean pitch theta imposed as zero: mean attitude = the body angle"},
       {"oscillation_amplitude_si", amp_si},
       {"oscillation_amplitude_nd", amp_nd},
       {"oscillation_note", "half peak-to-peak over the wingbeat (m/s, rad/s, rad; nd: / U, * c / U, rad)"},
@@ -352,6 +358,10 @@ int run_floquet(const CommandOptions& o) {
       fmt::print("  {:<24} {:>12.6f} {:<3} (averaged trim {:.6f})\n", p.label, p.value, p.unit, p.initial);
     fmt::print("  initial state u {:.4e} m/s, w {:.4e} m/s, q {:.4e} rad/s, theta {:.4e} rad\n", ct.initial_state(3),
                ct.initial_state(5), ct.initial_state(7), ct.initial_state(10));
+    fmt::print("  mean attitude {:.6f} deg (body long axis above the horizontal; {}: body angle {:.6f} deg + mean "
+               "theta {:.6f} deg)\n",
+               ct.mean_body_angle / deg, ct.free_attitude ? "free, the orbit's own" : "imposed",
+               ct.kinematics.body_angle / deg, ct.mean_theta / deg);
     fmt::print("  within-cycle oscillation (half peak-to-peak): u {:.3e} m/s, w {:.3e} m/s, q {:.3e} rad/s, theta "
                "{:.3e} rad ({:.3f} deg)\n",
                ct.amplitude_si(0), ct.amplitude_si(1), ct.amplitude_si(2), ct.amplitude_si(3),

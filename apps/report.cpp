@@ -401,6 +401,11 @@ ReportFiles build_report(const ReportInputs& in) {
         "nonlinear flow) agree to {:.1e} (longitudinal) and {:.1e} (lateral) in the multipliers.\n\n",
         cy.residual, cy.iterations, cy.amplitude_si(0), cy.amplitude_si(1), cy.amplitude_si(2),
         cy.amplitude_si(3) / deg, f.longitudinal.max_multiplier_difference, f.lateral.max_multiplier_difference);
+    md << fmt::format("Mean attitude over the orbit (body long axis above the horizontal): {:.4f}° ({}).\n\n",
+                      cy.mean_body_angle / deg,
+                      cy.free_attitude ? "free: the body angle held at the averaged trim's, the orbit's own mean pitch "
+                                         "added"
+                                       : "imposed: the orbit's mean pitch is the averaged trim's attitude");
     md << "| parameter | cyclic trim | averaged trim | unit |\n|---|---|---|---|\n";
     for (const auto& p : cy.parameters)
       md << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n", p.label, p.value, p.initial, p.unit);

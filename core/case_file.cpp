@@ -704,6 +704,7 @@ Case load_case(const std::string& path) {
   c.trim.objective = trim.string("objective", false, "least-change", {"least-change", "min-power"});
   c.trim.tolerance = trim.positive_in("tolerance", 1e-10, 1e-14, 0.1, "a relative residual");
   c.trim.max_iterations = trim.integer_or("max_iterations", 200, 1, 100000);
+  c.trim.cyclic_attitude = trim.string("cyclic_attitude", false, "imposed", {"imposed", "free"});
   if (const toml::node* ps = trim.node("parameter")) {
     if (!ps->is_array_of_tables()) trim.fail("parameter", "is not an array of tables", "[[trim.parameter]] entries");
     int i = 0;
@@ -723,6 +724,14 @@ Case load_case(const std::string& path) {
       c.trim.parameters.push_back(spec);
     }
   }
+  if (c.trim.cyclic_attitude == "free" &&
+      std::none_of(c.trim.parameters.begin(), c.trim.parameters.end(),
+                   [](const TrimParameterSpec& p) { return p.name == "body_angle_deg"; }))
+    trim.fail("cyclic_attitude",
+              "\"free\" lets the orbit's mean pitch take the place of body_angle_deg in the cyclic trim, but "
+              "body_angle_deg is not a [[trim.parameter]]",
+              "a [[trim.parameter]] with name = \"body_angle_deg\" (the averaged trim's moment balance), or "
+              "cyclic_attitude = \"imposed\"");
   trim.reject_unknown();
 
   Section der = top.sub("derivatives", false);

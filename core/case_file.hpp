@@ -103,6 +103,10 @@ struct TrimSettings {
   double tolerance = 1e-10;
   int max_iterations = 200;
   std::vector<TrimParameterSpec> parameters;
+  // The cyclic trim's mean attitude: "imposed" (the orbit's wingbeat-mean pitch is the averaged trim's attitude,
+  // a [trim] parameter balancing it) or "free" (the orbit finds its own mean pitch, which is reported; the body
+  // angle is held at the averaged trim's value and body_angle_deg leaves the cyclic trim's unknowns).
+  std::string cyclic_attitude = "imposed";
 };
 
 struct DerivativeSettings {

@@ -60,9 +60,10 @@ OdeOptions ode_options(const ReferenceQuantities& ref, double period, double rto
 
 class Shooting {
  public:
+  // free_attitude: the mean-pitch equation is left out (six residuals), the orbit's mean attitude is its own.
   Shooting(const Case& c, const AeroModel& model, const TrimParameterization& par, const ReferenceQuantities& ref,
-           double rtol)
-      : case_(c), model_(model), par_(par), ref_(ref), rtol_(rtol) {
+           double rtol, bool free_attitude)
+      : case_(c), model_(model), par_(par), ref_(ref), rtol_(rtol), nres_(free_attitude ? 6 : 7) {
     // z = [u0 / U, w0 / U, q0 c / U, theta0, parameters / (upper - lower)]
     zs_ = {1 / ref.U, 1 / ref.U, ref.c / ref.U, 1.0};
     for (const auto& s : par.specs()) zs_.push_back(1 / (s.upper - s.lower));
@@ -104,15 +105,15 @@ class Shooting {
     opts.jacobian = fj.function(aero);
     const OdeSolution s = integrate_ode(free_rhs(aero), x0, 0, T, sens, {}, opts);
     ++integrations_;
-    Eigen::VectorXd r(7);
-    for (int i = 0; i < 7; ++i) {
+    Eigen::VectorXd r(nres_);
+    for (int i = 0; i < nres_; ++i) {
       const int k = residual_states[i];
       r(i) = rs_[std::size_t(i)] * (s.x(k) - (i < 4 ? x0(k) : 0.0));
     }
     if (jacobian) {
       Eigen::MatrixXd& J = *jacobian;
-      J.resize(7, unknowns());
-      for (int i = 0; i < 7; ++i)
+      J.resize(nres_, unknowns());
+      for (int i = 0; i < nres_; ++i)
         for (int j = 0; j < 4; ++j)
           J(i, j) = rs_[std::size_t(i)] * (s.sensitivity(residual_states[i], j) - (i == j ? 1.0 : 0.0)) /
                     zs_[std::size_t(j)];
@@ -135,6 +136,7 @@ class Shooting {
   const TrimParameterization& par_;
   ReferenceQuantities ref_;
   double rtol_;
+  int nres_;
   std::vector<double> zs_, rs_;
   int integrations_ = 0;
 };
@@ -171,17 +173,30 @@ void check_cyclic_trim_case(const Case& c, const AeroModel& model) {
 CyclicTrimResult cyclic_trim(const Case& c, const AeroModel& model, const TrimResult& averaged,
                              const CyclicTrimOptions& o) {
   check_cyclic_trim_case(c, model);
-  const TrimParameterization par(c.kinematics, c.trim.parameters, c.path);
-  if (averaged.parameters.size() != par.size())
+  if (averaged.parameters.size() != c.trim.parameters.size())
     throw InputError(c.path, "trim.parameter", "the averaged trim does not match the case's [trim] parameters");
-  const ReferenceQuantities ref = reference_quantities(c.insect, averaged.kinematics, c.fluid);
+  // Imposed attitude: every [trim] parameter, from the case's kinematics. Free attitude: body_angle_deg stays at the
+  // averaged trim's value (the orbit's mean pitch takes its place), the others act on the averaged trim's kinematics.
+  const bool free_attitude = c.trim.cyclic_attitude == "free";
+  std::vector<TrimParameterSpec> specs;
   std::vector<double> p0;
-  for (const auto& p : averaged.parameters) p0.push_back(p.value);
-  Shooting shoot(c, model, par, ref, o.rtol);
+  for (std::size_t i = 0; i < c.trim.parameters.size(); ++i) {
+    if (free_attitude && c.trim.parameters[i].name == "body_angle_deg") continue;
+    specs.push_back(c.trim.parameters[i]);
+    p0.push_back(averaged.parameters[i].value);
+  }
+  if (free_attitude && specs.size() == c.trim.parameters.size())
+    throw InputError(c.path, "trim.cyclic_attitude", "\"free\" needs body_angle_deg among the [trim] parameters",
+                     "a [[trim.parameter]] with name = \"body_angle_deg\"");
+  const TrimParameterization par(free_attitude ? averaged.kinematics : c.kinematics, specs, c.path);
+  const ReferenceQuantities ref = reference_quantities(c.insect, averaged.kinematics, c.fluid);
+  Shooting shoot(c, model, par, ref, o.rtol, free_attitude);
   Eigen::VectorXd z = shoot.to_z(BodyStateVector::Zero(), p0);
 
   CyclicTrimResult res;
-  res.residual_names = {"u", "w", "q", "theta", "x_drift", "z_drift", "mean_theta"};
+  res.free_attitude = free_attitude;
+  res.residual_names = {"u", "w", "q", "theta", "x_drift", "z_drift"};
+  if (!free_attitude) res.residual_names.push_back("mean_theta");
   const NewtonOutcome n = newton_solve(
       [&shoot](const Eigen::VectorXd& zz, Eigen::MatrixXd* J) { return shoot.residual(zz, J); }, z, o.tolerance,
       o.max_iterations);
@@ -219,6 +234,7 @@ CyclicTrimResult cyclic_trim(const Case& c, const AeroModel& model, const TrimRe
   for (int i = 0; i < 8; ++i)
     for (int j = 0; j < 8; ++j) res.monodromy(i, j) = s.sensitivity(3 + i, j);
   res.mean_theta = s.x(12) / res.period;
+  res.mean_body_angle = res.kinematics.body_angle + res.mean_theta;
   Eigen::Vector4d lo = Eigen::Vector4d::Constant(1e300), hi = -lo;
   for (const auto& x : s.samples) {
     for (int j = 0; j < 4; ++j) {

@@ -8,7 +8,10 @@
 //   u(T) = u0, w(T) = w0, q(T) = q0, theta(T) = theta0   (periodicity)
 //   x(T) = x(0), z(T) = z(0)                              (no drift over a wingbeat)
 //   (1/T) int_0^T theta dt = 0                            (stability axes = the mean attitude)
-// square for three parameters. Newton (least squares / minimum norm otherwise) with the state columns
+// square for three parameters. With [trim] cyclic_attitude = "free" the last equation is left out: body_angle_deg
+// (which must be a [trim] parameter, for the averaged trim's moment balance) is held at the averaged trim's
+// value, the orbit settles at its own mean pitch, and the mean attitude (body angle + mean theta) is reported;
+// square for the two other parameters. Newton (least squares / minimum norm otherwise) with the state columns
 // of the Jacobian from CVODES forward sensitivities and the parameter columns from central differences
 // of the period map, started from the averaged trim. Residuals are scaled: velocities / U, rates c / U,
 // angles in rad, positions / c. Wu & Sun 2012 (J R Soc Interface 9:2033) find this cyclic equilibrium
@@ -33,13 +36,16 @@ struct CyclicTrimResult {
   bool converged = false;
   int iterations = 0, integrations = 0;
   double residual = 0;                         // max |scaled residual|
-  std::vector<std::string> residual_names;     // u, w, q, theta, x_drift, z_drift, mean_theta
+  std::vector<std::string> residual_names;     // u, w, q, theta, x_drift, z_drift, mean_theta (imposed attitude)
   Eigen::VectorXd residuals;                   // scaled
   std::vector<TrimParameterValue> parameters;  // initial = the averaged trim's value
   Kinematics kinematics;                       // with the cyclic-trim parameters
   double period = 0;                           // s
   BodyStateVector initial_state = BodyStateVector::Zero();  // at t = 0 (start of the downstroke)
-  double mean_theta = 0;                       // rad (zero at convergence)
+  double mean_theta = 0;                       // rad (zero at convergence with the attitude imposed)
+  bool free_attitude = false;                  // [trim] cyclic_attitude = "free"
+  // The orbit's wingbeat-mean attitude: the body's long axis above the horizontal, body_angle + mean_theta (rad).
+  double mean_body_angle = 0;
   // Within-cycle oscillation of [u, w, q, theta]: half peak-to-peak (SI: m/s, rad/s, rad) and non-dimensional.
   Eigen::Vector4d amplitude_si = Eigen::Vector4d::Zero(), amplitude_nd = Eigen::Vector4d::Zero();
   Eigen::Vector4d mean_si = Eigen::Vector4d::Zero();  // cycle means of [u, w, q, theta]

@@ -282,6 +282,27 @@ TEST(Examples, TranslationOnlyModelTrimsAndHasThreeExponents) {
                  "aero.model");
 }
 
+// cyclic_attitude = "free": the cyclic trim holds body_angle_deg and solves the two other parameters; the orbit's
+// mean attitude is written (body angle + mean theta) and differs from the averaged trim's body angle (the hawkmoth's
+// wingbeat-scale rocking moves it by about 0.08 deg; tests/trim/test_cyclic.cpp checks its value against the
+// imposed-attitude trim).
+TEST(Examples, FreeAttitudeCyclicTrimReportsTheMeanAttitude) {
+  const fs::path dir = out_dir("free_attitude");
+  const std::string example = source + "/data/examples/free_attitude_hawkmoth.toml";
+  const CliResult r = flapstab("floquet " + example + " -q -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = json_of(dir / "floquet.json");
+  const nlohmann::json& ct = j["cyclic_trim"];
+  EXPECT_TRUE(ct["converged"].get<bool>());
+  EXPECT_EQ(ct["attitude"], "free");
+  EXPECT_EQ(ct["parameters"].size(), 2u);
+  EXPECT_FALSE(ct["residuals"].contains("mean_theta"));
+  const double chi = double(ct["kinematics"]["body_angle_deg"]), mean = double(ct["mean_body_angle_deg"]);
+  EXPECT_NEAR(mean, chi + double(ct["mean_theta_rad"]) * 180 / M_PI, 1e-12);
+  EXPECT_GT(std::abs(mean - chi), 0.01);
+  EXPECT_LT(std::abs(mean - chi), 1.0);
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

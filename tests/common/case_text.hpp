@@ -2,6 +2,7 @@
 #pragma once
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <stdexcept>
 #include <unistd.h>
@@ -76,6 +77,13 @@ inline std::string write_temp(const std::string& name, const std::string& text) 
   const auto p = dir / name;
   std::ofstream(p) << text;
   return p.string();
+}
+
+// The whole text of a file (a shipped case to edit); std::runtime_error if it cannot be read.
+inline std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("test: cannot read " + path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 // Replaces the first occurrence of `from` in `s` with `to` (the test fails loudly if absent).

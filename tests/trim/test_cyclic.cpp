@@ -8,6 +8,7 @@
 #include "cfd/aero_factory.hpp"
 #include "cfd/derivatives.hpp"
 #include "cfd/phase_derivatives.hpp"
+#include "common/case_text.hpp"
 #include "core/eom.hpp"
 #include "core/errors.hpp"
 #include "trim/cyclic.hpp"
@@ -182,6 +183,77 @@ TEST(CyclicTrim, FreeSystemJacobianMatchesFiniteDifferences) {
       EXPECT_LT(err, 1e-7) << "phase " << k << " column " << j;
     }
   }
+}
+
+// [trim] cyclic_attitude = "free". With the stroke plane fixed to the body (stroke_plane_reference = "body"), a change
+// of body_angle_deg turns the whole insect rigidly in the stability axes, and in hover (air at rest) the loads in
+// body axes do not change: it is the same as a mean pitch theta of the free orbit. So the dronefly trimmed with
+// body_angle_deg for the horizontal force in place of pitch_mean_deg (imposed: the orbit's mean theta is zero, the body angle solved) and the
+// same case with the attitude free (body angle held at the averaged trim's value, the orbit's mean theta solved)
+// must find the same orbit (the hawkmoth: slow wingbeat, heavy wings, so the cyclic trim moves the body angle by
+// 0.08 deg from the averaged trim's): the free trim's reported mean attitude equals the imposed trim's body angle, and the
+// other two parameters agree. Tolerances: 1e-8 rad and 1e-7 deg (Newton to 1e-10 in the scaled residual).
+TEST(CyclicTrim, FreeAttitudeFindsTheImposedTrimsBodyAngle) {
+  const std::string source = std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/hawkmoth.toml";
+  std::string text = testing::read_file(source);
+  text = testing::replace(text, "stroke_plane_deg = -15.0", "stroke_plane_reference = \"body\"\nstroke_plane_deg = -49.3");
+  text = testing::replace(text, "name = \"pitch_mean_deg\"", "name = \"body_angle_deg\"");
+  text = testing::replace(text, "lower = 70.0 ", "lower = 20.0 ");
+  text = testing::replace(text, "upper = 110.0", "upper = 80.0");
+  const Case imposed = load_case(testing::write_temp("cyclic_imposed.toml", text));
+  const Case free = load_case(testing::write_temp(
+      "cyclic_free.toml", testing::replace(text, "max_iterations = 200\n", "max_iterations = 200\ncyclic_attitude = \"free\"\n")));
+  ASSERT_EQ(free.trim.cyclic_attitude, "free");
+  const auto model = make_aero_model(imposed);
+  const TrimResult averaged = trim_hover(imposed, *model);
+  ASSERT_TRUE(averaged.converged);
+  const CyclicTrimResult a = cyclic_trim(imposed, *model, averaged), b = cyclic_trim(free, *model, averaged);
+  ASSERT_TRUE(a.converged) << a.message;
+  ASSERT_TRUE(b.converged) << b.message;
+  EXPECT_FALSE(a.free_attitude);
+  EXPECT_TRUE(b.free_attitude);
+  ASSERT_EQ(a.parameters.size(), 3u);
+  ASSERT_EQ(b.parameters.size(), 2u);  // body_angle_deg held
+  EXPECT_EQ(b.residual_names.size(), 6u);
+  EXPECT_LT(std::abs(a.mean_theta), 1e-10);
+  EXPECT_NEAR(b.kinematics.body_angle, averaged.kinematics.body_angle, 1e-15);
+  // The cyclic trim moves the body angle away from the averaged trim's, so the free orbit does pitch on average.
+  std::printf("averaged body angle %.10f deg, imposed cyclic %.10f deg, free mean attitude %.10f deg\n",
+              averaged.kinematics.body_angle / deg, a.kinematics.body_angle / deg, b.mean_body_angle / deg);
+  EXPECT_GT(std::abs(a.kinematics.body_angle - averaged.kinematics.body_angle), 1e-5);
+  EXPECT_NEAR(b.mean_body_angle, a.kinematics.body_angle, 1e-8);
+  EXPECT_NEAR(a.mean_body_angle, a.kinematics.body_angle, 1e-10);
+  for (std::size_t i = 0, j = 0; i < a.parameters.size(); ++i) {
+    if (a.parameters[i].name == "body_angle_deg") continue;
+    EXPECT_EQ(a.parameters[i].name, b.parameters[j].name);
+    EXPECT_NEAR(a.parameters[i].value, b.parameters[j].value, 1e-7) << a.parameters[i].name;
+    ++j;
+  }
+  // The same orbit: the attitude's oscillation and the speed over the wingbeat (u, w turn with the axes).
+  EXPECT_NEAR(a.amplitude_si(3), b.amplitude_si(3), 1e-9);
+  EXPECT_NEAR(a.amplitude_si(2), b.amplitude_si(2), 1e-7 * a.amplitude_si(2));
+  EXPECT_NEAR(std::hypot(a.initial_state(3), a.initial_state(5)), std::hypot(b.initial_state(3), b.initial_state(5)),
+              1e-8 * reference_quantities(imposed.insect, a.kinematics, imposed.fluid).U);
+}
+
+// "free" needs body_angle_deg among the [trim] parameters (the averaged trim's moment or force balance that the
+// orbit's mean pitch replaces); without it the case is refused naming the key.
+TEST(CyclicTrim, FreeAttitudeWithoutBodyAngleParameterIsRefused) {
+  const std::string source = std::string(FLAPSTAB_SOURCE_DIR) + "/data/insects/dronefly.toml";
+  const std::string text = testing::replace(testing::read_file(source), "max_iterations = 200\n",
+                                            "max_iterations = 200\ncyclic_attitude = \"free\"\n");
+  const std::string path = testing::write_temp("cyclic_free_bad.toml", text);
+  try {
+    load_case(path);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("trim.cyclic_attitude"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("body_angle_deg"), std::string::npos) << e.what();
+  }
+  const std::string bad = testing::write_temp(
+      "cyclic_free_value.toml", testing::replace(text, "cyclic_attitude = \"free\"", "cyclic_attitude = \"loose\""));
+  EXPECT_THROW(load_case(bad), InputError);
 }
 
 }  // namespace
