@@ -76,6 +76,7 @@ json kinematics_json(const Kinematics& k) {
           {"stroke_amplitude_deg", k.stroke_amplitude() / deg},
           {"right", wing(k.right)},
           {"left", wing(k.left)}};
+  if (k.abdomen_flexion != 0) out["abdomen_flexion_deg"] = k.abdomen_flexion / deg;
   if (k.has_hind) {
     out["hind"] = {{"phase_deg", k.hind_phase * 360}, {"right", wing(k.hind_right)}, {"left", wing(k.hind_left)}};
   }

@@ -613,7 +613,9 @@ const std::vector<std::string>& trim_parameter_names() {
       "pitch_amplitude_deg", "deviation_mean_deg",  "stroke_plane_deg", "body_angle_deg",
       // Parameters of the Berman & Wang (2007) angle forms (type = "berman-wang" only, but deviation_amplitude_deg
       // also scales an oscillating Fourier or Hermite deviation).
-      "stroke_shape_k", "pitch_shape_c", "pitch_phase_deg", "deviation_amplitude_deg", "deviation_phase_deg"};
+      "stroke_shape_k", "pitch_shape_c", "pitch_phase_deg", "deviation_amplitude_deg", "deviation_phase_deg",
+      // Added to the abdomen's relative pitch at every phase (an insect with an [abdomen]).
+      "abdomen_flexion_deg"};
   return names;
 }
 
@@ -868,6 +870,23 @@ Case load_case(const std::string& path) {
     if (c.aero.model == "cfd")
       throw InputError(path, "aero.model", "the translation-only model ([body_motion]) needs instantaneous loads",
                        "model = \"quasi-steady\" with [body_motion]");
+  }
+
+  // abdomen_flexion_deg moves the abdomen: refused, naming the key, where there is none.
+  if (!c.insect.abdomen) {
+    const std::string flexion = "abdomen_flexion_deg";
+    const std::string problem = "\"abdomen_flexion_deg\" flexes the abdomen, but the insect has no [abdomen]";
+    const std::string expected = "an [abdomen] section, or another kinematic parameter";
+    for (std::size_t i = 0; i < c.trim.parameters.size(); ++i)
+      if (c.trim.parameters[i].name == flexion)
+        throw InputError(path, fmt::format("trim.parameter[{}].name", i), problem, expected);
+    if (c.control.actuator == flexion) throw InputError(path, "control.pitch.actuator", problem, expected);
+    for (std::size_t i = 0; i < c.control.feedback.size(); ++i)
+      if (c.control.feedback[i].actuator == flexion)
+        throw InputError(path, fmt::format("control.feedback[{}].actuator", i), problem, expected);
+    for (std::size_t i = 0; i < c.control.actuators.size(); ++i)
+      if (c.control.actuators[i].name == flexion)
+        throw InputError(path, fmt::format("control.actuator[{}].name", i), problem, expected);
   }
 
   Section out = top.sub("output", false);

@@ -60,7 +60,7 @@ Vec3 Configuration::abdomen_cg_about_body_cg(double t, Mat3* axes, double* rate,
   const Abdomen& a = *insect_.abdomen;
   const double n = kin_.frequency_hz;
   const SeriesValue eta = a.pitch.eval(t * n);
-  const Mat3 R = r_sa_ * rot_y(eta.f);
+  const Mat3 R = r_sa_ * rot_y(eta.f + kin_.abdomen_flexion);
   if (axes) *axes = R;
   if (rate) *rate = eta.df * n;
   if (acc) *acc = eta.ddf * n * n;

@@ -37,6 +37,10 @@ struct Kinematics {
   bool stroke_plane_on_body = false;
   // The stroke plane's inclination from the stability x-y plane (rad), whichever its reference.
   double stroke_plane_in_stability() const { return stroke_plane + (stroke_plane_on_body ? body_angle : 0.0); }
+  // Abdominal flexion (rad): added to the abdomen's relative pitch eta ([abdomen.pitch]) at every phase; 0 = the
+  // case's abdomen motion. The trim and actuator parameter abdomen_flexion_deg (an insect with an [abdomen] only):
+  // hawkmoths flex the abdomen to steer (Dyhr et al. 2013, J Exp Biol 216:1523).
+  double abdomen_flexion = 0;
   WingAngles right, left;     // left uses the same conventions as right (mirror-image definitions)
   // The hind pair of a four-winged insect ([kinematics.hind]): its own angle histories in the same stroke plane,
   // evaluated hind_phase cycles ahead of the fore pair (tau_hind = tau + hind_phase).

@@ -76,7 +76,8 @@ TrimParameterization::TrimParameterization(const Kinematics& base, std::vector<T
   for (std::size_t i = 0; i < specs_.size(); ++i) {
     const auto& s = specs_[i];
     const std::string key = "trim.parameter[" + std::to_string(i) + "]";
-    const bool global = s.name == "frequency_hz" || s.name == "stroke_plane_deg" || s.name == "body_angle_deg";
+    const bool global = s.name == "frequency_hz" || s.name == "stroke_plane_deg" || s.name == "body_angle_deg" ||
+                        s.name == "abdomen_flexion_deg";
     if (global && s.side != ParameterSide::both)
       throw InputError(file, key + ".side", "\"" + s.name + "\" applies to the whole insect", "side = \"both\"");
     if (base_.revolving() && (s.name == "stroke_amplitude_deg" || s.name == "stroke_mean_deg" ||
@@ -115,6 +116,7 @@ double TrimParameterization::base_value(const TrimParameterSpec& s) const {
   if (s.name == "frequency_hz") return base_.frequency_hz;
   if (s.name == "stroke_plane_deg") return base_.stroke_plane / deg;
   if (s.name == "body_angle_deg") return base_.body_angle / deg;
+  if (s.name == "abdomen_flexion_deg") return base_.abdomen_flexion / deg;
   if (s.name == "stroke_amplitude_deg") return exact_peak_to_peak(w.stroke) / deg;
   if (s.name == "pitch_amplitude_deg") return exact_peak_to_peak(w.pitch) / deg;
   if (s.name == "stroke_mean_deg") return w.stroke.mean() / deg;
@@ -136,6 +138,7 @@ Kinematics TrimParameterization::apply(const std::vector<double>& values) const 
     if (s.name == "frequency_hz") k.frequency_hz = v;
     else if (s.name == "stroke_plane_deg") k.stroke_plane = v * deg;
     else if (s.name == "body_angle_deg") k.body_angle = v * deg;
+    else if (s.name == "abdomen_flexion_deg") k.abdomen_flexion = v * deg;
     else {
       for (WingAngles* w : wings(k, s.side)) {
         if (s.name == "stroke_amplitude_deg") w->stroke.scale_oscillation(v / v0);

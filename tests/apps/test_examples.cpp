@@ -303,6 +303,21 @@ TEST(Examples, FreeAttitudeCyclicTrimReportsTheMeanAttitude) {
   EXPECT_LT(std::abs(mean - chi), 1.0);
 }
 
+// Abdominal flexion as the pitch controller's actuator: analyze reports its control derivative (a ventral flexion
+// moves the CoM forward: nose-down, M < 0, no force) and the delayed loop's critical latency; the loop stabilises
+// for some latency (critical latency > 0) but not at the case's 41 ms.
+TEST(Examples, AbdominalFlexionDrivesThePitchController) {
+  const nlohmann::json j = analyze("abdomen_control_hawkmoth.toml");
+  ASSERT_FALSE(j.is_null());
+  const nlohmann::json& c = j["control"];
+  EXPECT_NE(c["description"].get<std::string>().find("abdomen_flexion_deg"), std::string::npos) << c;
+  EXPECT_GT(double(c["critical_latency_s"]), 0.005);
+  EXPECT_LT(double(c["critical_latency_s"]), 0.041);
+  EXPECT_GT(double(c["periodic_spectral_radius"]["closed_loop"]), 1.0);
+  const std::string report = slurp(fs::path(testing::write_temp("x", "")).parent_path() / "example_abdomen_control_hawkmoth.toml" / "report.md");
+  EXPECT_NE(report.find("Control derivatives of abdomen_flexion_deg"), std::string::npos);
+}
+
 TEST(Examples, MinimumPowerTrimCostsLessThanTheLeastChangeTrim) {
   const nlohmann::json m = trim(source + "/data/examples/min_power_hawkmoth.toml");
   const nlohmann::json f = trim(source + "/data/insects/hawkmoth.toml");

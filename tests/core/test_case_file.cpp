@@ -343,6 +343,28 @@ TEST(CaseFile, AbdomenLoads) {
   EXPECT_EQ(r.insect.abdomen->pitch.eval(0.3).f, 0.0);
 }
 
+// abdomen_flexion_deg: a trim parameter and actuator of an insect with an [abdomen] (it loads, starts at 0 and acts
+// on both sides); without an [abdomen] each place that names it is refused with its key.
+TEST(CaseFile, AbdomenFlexionParameter) {
+  const std::string flexion = "name = \"abdomen_flexion_deg\"\nlower = -30.0\nupper = 30.0\n";
+  const Case c = load_case(testing::write_temp(
+      "abdomen_flexion.toml", testing::replace(abdomen_case_text(), "name = \"pitch_mean_deg\"\nlower = 60.0\nupper = 120.0\n", flexion)));
+  ASSERT_EQ(c.trim.parameters.size(), 3u);
+  EXPECT_EQ(c.trim.parameters[2].name, "abdomen_flexion_deg");
+  EXPECT_EQ(c.kinematics.abdomen_flexion, 0.0);
+  const std::string control = "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"abdomen_flexion_deg\"\n"
+                              "pitch_gain = 1.0\n";
+  EXPECT_NO_THROW(load_case(testing::write_temp("abdomen_flexion_control.toml", abdomen_case_text() + control)));
+  const std::string feedback = "\n[control]\ntype = \"state-feedback\"\n[[control.feedback]]\nstate = \"theta\"\n"
+                               "actuator = \"abdomen_flexion_deg\"\ngain = 10.0\n[[control.actuator]]\n"
+                               "name = \"abdomen_flexion_deg\"\nlower = -20.0\nupper = 20.0\n";
+  expect_bad_texts({{testing::replace(valid_case_text(), "name = \"pitch_mean_deg\"\nlower = 60.0\nupper = 120.0\n", flexion),
+                     "trim.parameter[2].name"},
+                    {valid_case_text() + control, "control.pitch.actuator"},
+                    {valid_case_text() + feedback, "control.feedback[0].actuator"}},
+                   "flexion_bad");
+}
+
 TEST(CaseFile, AbdomenBadInputNamesFileAndKey) {
   expect_bad_edits(abdomen_case_text(),
                    {{"joint_m = [-0.006, 0.0, 0.001]\n", "", "abdomen.joint_m"},

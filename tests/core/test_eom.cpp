@@ -209,6 +209,45 @@ TEST(Eom, AbdomenConservesMomentumWithoutExternalLoads) {
   EXPECT_GT((momentum_change(Configuration(rigid, k)).x1 - m.x1).norm(), 1e-3 * m.x1.norm());
 }
 
+// abdomen_flexion (the trim and actuator parameter abdomen_flexion_deg) adds to the relative pitch at every phase:
+// a flexion of 7 deg on the oscillating abdomen equals the same series with its mean raised by 7 deg, in the
+// reference point, the mass state and the equations of motion (to round-off, 1e-15 and 1e-12); and it does move
+// the abdomen (the CoM shifts by m_a / m x the abdomen CoM's displacement, checked against the rotation by hand).
+TEST(Eom, AbdomenFlexionShiftsTheRelativePitch) {
+  Insect ins = testing::test_insect();
+  ins.abdomen = test_abdomen();
+  ins.abdomen->pitch = FourierSeries{-10 * deg, {15 * deg, 3 * deg}, {5 * deg, -2 * deg}};
+  Insect shifted = ins;
+  shifted.abdomen->pitch = FourierSeries{-3 * deg, {15 * deg, 3 * deg}, {5 * deg, -2 * deg}};
+  const Kinematics k = testing::harmonic_kinematics(26, 120, 35, 40, 10);
+  Kinematics kf = k;  // Configuration keeps a reference to its kinematics: one object per configuration
+  kf.abdomen_flexion = 7 * deg;
+  const Configuration plain(ins, k), moved(shifted, k), flexed(ins, kf);
+  EXPECT_LT((flexed.reference_point() - moved.reference_point()).norm(), 1e-15);
+  EXPECT_GT((flexed.reference_point() - plain.reference_point()).norm(), 1e-5);
+  const BodyStateVector x = moving_state();
+  Wrench w;
+  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
+  w.moment = Vec3(1e-5, -3e-5, 2e-6);
+  for (double t : {0.0, 0.011, 0.027}) {
+    const BodyStateVector a = body_state_derivative(flexed, t, x, w), b = body_state_derivative(moved, t, x, w);
+    EXPECT_LT((a - b).norm(), 1e-12 * b.norm()) << t;
+  }
+  // A rigid abdomen flexed by 7 deg: its CoM turns about the joint, p = joint + R_y(7 deg) centre (A axes), so the
+  // insect's CoM in A moves by m_a (p - p0) / m. R_y by hand: positive turns x towards -z (tip ventral for x < 0).
+  Insect rigid = ins;
+  rigid.abdomen->pitch = FourierSeries{0.0, {}, {}};
+  Kinematics k0 = testing::harmonic_kinematics(26, 120, 35, 40, 10), k7 = k0;
+  k7.abdomen_flexion = 7 * deg;
+  const Configuration r0(rigid, k0), r7(rigid, k7);
+  const Vec3 c = rigid.abdomen->centre;
+  const double s = std::sin(7 * deg), co = std::cos(7 * deg);
+  const Vec3 turned(co * c.x() + s * c.z(), c.y(), -s * c.x() + co * c.z());
+  const Vec3 expected = r0.anatomical_to_stability() * (rigid.abdomen->mass * (turned - c) / rigid.total_mass());
+  EXPECT_LT((r7.reference_point() - r0.reference_point() - expected).norm(), 1e-15);
+  EXPECT_GT(expected.z(), 0);  // for this abdomen (behind the joint) the CoM moves ventrally
+}
+
 // A rigid abdomen (constant relative pitch, bent by 12 deg) is one body with the combined mass properties: mass
 // m_t + m_a, CoM d = m_a p / m (p the abdomen CoM in A), inertia by the parallel-axis theorem, the hinges moved by
 // -d. The reference point, the mass state's aggregates and the equations of motion agree to round-off (1e-12).

@@ -5,6 +5,10 @@
 #include <cmath>
 
 #include "cfd/aero_factory.hpp"
+#include "cfd/derivatives.hpp"
+#include "common/case_text.hpp"
+#include "flight/control_derivatives.hpp"
+#include "flight/controller.hpp"
 #include "core/rotation.hpp"
 #include "flight/free_flight.hpp"
 #include "flight/hover_model.hpp"
@@ -53,6 +57,37 @@ TEST(ControlDerivatives, FrequencyDerivativeIsTwiceTheLoadOverFrequency) {
   const ControlDerivativeResult at_rest =
       control_derivatives(*l.model, l.c.insect, ka, {f}, l.h.derivatives.table.reference);
   EXPECT_NEAR(at_rest.si(2, 0), -2 * l.c.insect.weight() / ka.frequency_hz, 1e-8 * l.c.insect.weight() / n);
+}
+
+// Abdominal flexion as an actuator (abdomen_flexion_deg): it moves no wing, so its control derivative is the weight's
+// moment of the CoM shift alone. For the rigid abdomen of the example hawkmoth (CoM c from the joint, A axes) a
+// flexion delta turns c about the joint's y axis: dp/d delta = y x c = (c_z, 0, -c_x) in A, whose x component in S
+// (A pitched nose-up by the body angle chi: x_S = v_x cos chi + v_z sin chi) is c_z cos chi - c_x sin chi; the
+// moment of the weight (+z in S) about O is then dM/d delta = -m_a g dx_S/d delta (nose-down for a forward shift). The
+// central difference over +-0.5 deg of this sinusoid is the derivative times sin h / h exactly, so the hand value
+// holds to rounding (1e-9 relative); the forces and the aerodynamic share are zero (1e-12 of W, W R per deg).
+TEST(ControlDerivatives, AbdominalFlexionIsTheWeightsMomentOfTheCoMShift) {
+  std::string text = testing::read_file(std::string(FLAPSTAB_SOURCE_DIR) + "/data/examples/abdomen_hawkmoth.toml");
+  text = testing::replace(text, "mean_deg = 0.0\ncos_deg = [5.0]", "mean_deg = 0.0");
+  const Case c = load_case(testing::write_temp("flexion_control.toml", text));
+  ASSERT_TRUE(c.insect.abdomen);
+  const auto model = make_aero_model(c);
+  const TrimResult t = trim_hover(c, *model);
+  ASSERT_TRUE(t.converged);
+  const ReferenceQuantities ref = reference_quantities(c.insect, t.kinematics, c.fluid);
+  const ControlDerivativeResult r =
+      control_derivatives(*model, c.insect, t.kinematics, {unbounded_parameter("abdomen_flexion_deg")}, ref);
+  const Abdomen& a = *c.insect.abdomen;
+  const double chi = t.kinematics.body_angle, h = 0.5 * deg;
+  const double dx_s = a.centre.z() * std::cos(chi) - a.centre.x() * std::sin(chi);  // per rad of flexion
+  const double expected = -a.mass * c.insect.gravity * dx_s * deg * std::sin(h) / h;  // N m per deg
+  const double W = c.insect.weight(), R = c.insect.wing.length;
+  std::printf("    dM/d(flexion) = %.10e N m/deg, hand %.10e\n", r.si(4, 0), expected);
+  EXPECT_NEAR(r.si(4, 0), expected, 1e-9 * std::abs(expected));
+  EXPECT_LT(expected, 0);  // a ventral flexion moves the CoM forward: nose-down
+  for (int i : {0, 1, 2}) EXPECT_LT(std::abs(r.si(i, 0)), 1e-12 * W) << i;
+  for (int i : {3, 5}) EXPECT_LT(std::abs(r.si(i, 0)), 1e-12 * W * R) << i;
+  EXPECT_LT((r.si.col(0) - r.gravity_si.col(0)).norm(), 1e-12 * W * R);
 }
 
 // The loop's assembly: with zero latency the roots are the eigenvalues of A - b k^T; a sensor filter adds the
