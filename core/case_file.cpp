@@ -382,6 +382,18 @@ Abdomen parse_abdomen(Section s) {
                        "kg m^2)", lowest),
            "an inertia about the joint at least m |r_cg|^2 about each axis");
   a.pitch = parse_angle(s.sub("pitch", false), "pitch", 0.0);
+  // Optional drag: an ellipsoid of the given diameters centred at the abdomen CoM.
+  a.drag_coefficient = s.number_or("drag_coefficient", 0.0, "a drag coefficient >= 0");
+  if (a.drag_coefficient < 0 || a.drag_coefficient > 10)
+    s.fail("drag_coefficient", fmt::format("{:.6g} outside [0, 10]", a.drag_coefficient), "a drag coefficient in [0, 10]");
+  const char* dims[3] = {"length_m", "width_m", "height_m"};
+  for (int i = 0; i < 3; ++i) {
+    if (a.drag_coefficient > 0)
+      a.diameters[i] = s.positive(dims[i], "m (a diameter of the abdomen's drag ellipsoid)");
+    else if (s.has(dims[i]))
+      s.fail(dims[i], "given without drag_coefficient (the ellipsoid is used for the abdomen's drag only)",
+             "drag_coefficient > 0 with length_m, width_m, height_m, or none of them");
+  }
   s.reject_unknown();
   return a;
 }

@@ -77,12 +77,12 @@ class Configuration {
   MassState mass_state(double t) const;
   // Map from A to S axes.
   const Mat3& anatomical_to_stability() const { return r_sa_; }
+  // The abdomen's CoM from the body CoM (S axes), its orientation (abdomen frame -> S) and the relative pitch's
+  // rate and acceleration (rad/s, rad/s^2) at time t. Needs an [abdomen].
+  Vec3 abdomen_cg_about_body_cg(double t, Mat3* axes = nullptr, double* rate = nullptr, double* acc = nullptr) const;
 
  private:
   Vec3 wing_cg_about_body_cg(Side s, double t, Pair p) const;
-  // The abdomen's CoM from the body CoM (S axes), its orientation (abdomen frame -> S) and the relative pitch's
-  // rate and acceleration (rad/s, rad/s^2) at time t.
-  Vec3 abdomen_cg_about_body_cg(double t, Mat3* axes = nullptr, double* rate = nullptr, double* acc = nullptr) const;
   const Insect& insect_;
   const Kinematics& kin_;
   Mat3 r_sa_, r_sp_;

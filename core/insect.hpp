@@ -58,6 +58,10 @@ struct Abdomen {
   Vec3 centre = Vec3::Zero();         // abdomen CoM from the joint, abdomen frame (m)
   Mat3 inertia_cg = Mat3::Zero();     // about the abdomen CoM, abdomen frame (kg m^2)
   AngleSeries pitch;                  // eta (rad) against the wingbeat phase tau = t f (cycles)
+  // Quadratic drag of the abdomen as an ellipsoid centred at its CoM (quasi-steady model; 0: none), on the projected
+  // ellipse area of each abdomen axis, as [body] drag_coefficient on the thorax.
+  double drag_coefficient = 0;
+  Vec3 diameters = Vec3::Zero();      // length (x), width (y), height (z) of that ellipsoid, abdomen axes (m)
 };
 
 struct Insect {

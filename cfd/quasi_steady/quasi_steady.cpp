@@ -239,7 +239,7 @@ WrenchSample QuasiSteadyModel::loads(const Configuration& config, const SpanQuad
     s.left += wing_loads(config.wing_pose(Side::left, t, Pair::hind), hind->pitch_axis, *span.hind, motion, power_left);
     s.power += power_right + power_left;
   }
-  s.body = body_loads(config, motion);
+  s.body = body_loads(config, motion) + abdomen_loads(config, t, motion, nullptr);
   return s;
 }
 
@@ -457,7 +457,39 @@ Wrench QuasiSteadyModel::loads_jacobian(const Configuration& config, const SpanQ
     jacobian.topRows<3>() += dF;
     jacobian.bottomRows<3>() += skew(pc) * dF;
   }
+  total += abdomen_loads(config, t, motion, &jacobian);
   return total;
+}
+
+// The abdomen's drag, as the thorax's (section 6) on the abdomen's own ellipsoid and axes R = R_SA R_y(eta): its
+// centre p (the abdomen CoM, from O) moves at v + Omega x p + eta' e_y x (p - joint), the last the flexion's own
+// velocity relative to the thorax. v_A = R^T (...), f_A,i = -rho C_D A_i |v_A,i| v_A,i / 2, F = R f_A, M = p x F;
+// d v_A / d[v; Omega] = R^T [I, -skew(p)], d f_A,i / d v_A,i = -rho C_D A_i |v_A,i|.
+Wrench QuasiSteadyModel::abdomen_loads(const Configuration& config, double t, const BodyMotion& motion,
+                                       Eigen::Matrix<double, 6, 6>* jacobian) const {
+  Wrench out;
+  const auto& ab = config.insect().abdomen;
+  if (!ab || !(ab->drag_coefficient > 0)) return out;
+  Mat3 R;
+  double rate = 0;
+  const Vec3 cg = config.abdomen_cg_about_body_cg(t, &R, &rate);  // from the thorax CoM, S axes
+  const Vec3 p = config.body_centre() + cg;
+  const Vec3 relative = Vec3(0, rate, 0).cross(R * ab->centre);
+  const Vec3 va = R.transpose() * (motion.velocity + motion.rate.cross(p) + relative);
+  const Vec3& d = ab->diameters;
+  const Vec3 area = pi / 4 * Vec3(d.y() * d.z(), d.x() * d.z(), d.x() * d.y());
+  const Vec3 fa = -0.5 * opt_.rho * ab->drag_coefficient * area.cwiseProduct(va.cwiseAbs()).cwiseProduct(va);
+  out.force = R * fa;
+  out.moment = p.cross(out.force);
+  if (jacobian) {
+    const Vec3 dfa = -opt_.rho * ab->drag_coefficient * area.cwiseProduct(va.cwiseAbs());
+    Eigen::Matrix<double, 3, 6> dva;
+    dva << R.transpose(), -R.transpose() * skew(p);
+    const Eigen::Matrix<double, 3, 6> dF = R * dfa.asDiagonal() * dva;
+    jacobian->topRows<3>() += dF;
+    jacobian->bottomRows<3>() += skew(p) * dF;
+  }
+  return out;
 }
 
 // Section 6: quadratic body drag per anatomical axis on the projected ellipse areas, at the body CoM.

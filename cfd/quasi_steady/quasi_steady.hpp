@@ -94,6 +94,9 @@ class QuasiSteadyModel : public AeroModel {
   Wrench wing_loads(const WingPose& pose, double pitch_axis, const SpanQuadrature& span,
                     const BodyMotion& motion, double& power) const;
   Wrench body_loads(const Configuration& config, const BodyMotion& motion) const;
+  // [abdomen] drag: the wrench about O at time t and, if jacobian != nullptr, its d[F; M] / d[v; Omega] added there.
+  Wrench abdomen_loads(const Configuration& config, double t, const BodyMotion& motion,
+                       Eigen::Matrix<double, 6, 6>* jacobian) const;
   QuasiSteadyOptions opt_;
   CoefficientFit fit_;
 };

@@ -345,6 +345,19 @@ TEST(CaseFile, AbdomenLoads) {
 
 // abdomen_flexion_deg: a trim parameter and actuator of an insect with an [abdomen] (it loads, starts at 0 and acts
 // on both sides); without an [abdomen] each place that names it is refused with its key.
+// The abdomen's optional drag ellipsoid: drag_coefficient with its three diameters.
+TEST(CaseFile, AbdomenDragLoads) {
+  const Case c = load_case(testing::write_temp(
+      "abdomen_drag.toml", testing::replace(abdomen_case_text(), "[abdomen]\n",
+                                            "[abdomen]\ndrag_coefficient = 1.2\nlength_m = 0.024\nwidth_m = 0.010\n"
+                                            "height_m = 0.009\n")));
+  ASSERT_TRUE(c.insect.abdomen);
+  EXPECT_EQ(c.insect.abdomen->drag_coefficient, 1.2);
+  EXPECT_EQ(c.insect.abdomen->diameters, Vec3(0.024, 0.010, 0.009));
+  const Case none = load_case(testing::write_temp("abdomen_nodrag.toml", abdomen_case_text()));
+  EXPECT_EQ(none.insect.abdomen->drag_coefficient, 0.0);
+}
+
 TEST(CaseFile, AbdomenFlexionParameter) {
   const std::string flexion = "name = \"abdomen_flexion_deg\"\nlower = -30.0\nupper = 30.0\n";
   const Case c = load_case(testing::write_temp(
@@ -379,6 +392,10 @@ TEST(CaseFile, AbdomenBadInputNamesFileAndKey) {
                      "abdomen.inertia_joint_kg_m2"},
                     {"cos_deg = [15.0]", "cos_deg = [15.0]\nrate = 1.0", "abdomen.pitch.rate"},
                     {"[abdomen]\n", "[abdomen]\nlength_m = 0.02\n", "abdomen.length_m"},
+                    {"[abdomen]\n", "[abdomen]\ndrag_coefficient = 1.0\nwidth_m = 0.01\nheight_m = 0.01\n", "abdomen.length_m"},
+                    {"[abdomen]\n", "[abdomen]\ndrag_coefficient = -1.0\n", "abdomen.drag_coefficient"},
+                    {"[abdomen]\n", "[abdomen]\ndrag_coefficient = 1.0\nlength_m = 0.02\nwidth_m = 0.0\nheight_m = 0.01\n",
+                     "abdomen.width_m"},
                     {"model = \"quasi-steady\"", "model = \"cfd\"", "aero.model"}},
                    "abdomen_bad");
 }
