@@ -314,6 +314,10 @@ TEST(NsGeometry, HindPairIsPlacedByTheConfigurationsHindPose) {
       // Round-off: positions of order 0.05 m, the same arithmetic (hinge + axes xi).
       EXPECT_LT(err, 1e-15) << "t/T = " << phase;
       EXPECT_LT(verr, 1e-12 * std::max(scale, 1.0)) << "t/T = " << phase;
+      // Symmetric hind kinematics: the left hind wing is the mirror image of the right one, vertex by vertex, so the
+      // flow solver is given a mirror-symmetric insect.
+      for (std::size_t i = 0; i < hind.vertices.size(); ++i)
+        ASSERT_NEAR((parts[4].mesh.vertices[i] - mirror_y() * parts[3].mesh.vertices[i]).norm(), 0.0, 1e-15);
       // The hind wing is not the fore wing: in the distinct variant they differ by centimetres.
       if (v.insect == &distinct)
         EXPECT_GT((parts[3].mesh.vertices.back() - parts[1].mesh.vertices.back()).norm(), 1e-3);
