@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include "common/case_text.hpp"
 #include "core/types.hpp"
@@ -215,8 +216,11 @@ std::string four_winged(const std::string& keys, const std::string& hinge, const
 }
 
 TEST(CfdCli, FourWingedInsectRunsWithFiveParts) {
+  // With force partitioning of the four wings (their parts and regions named after them).
   const std::string text = four_winged("steps_per_cycle = 60\nreynolds = 20\nfields_per_cycle = 0\n"
-                                       "surfaces_per_cycle = 1\ncheckpoints_per_cycle = 1\n",
+                                       "surfaces_per_cycle = 1\ncheckpoints_per_cycle = 1\n[aero.cfd.fpm]\n"
+                                       "samples_per_cycle = 4\ncomponents = [\"Fz\"]\n"
+                                       "parts = [\"right\", \"left\", \"hind_right\", \"hind_left\"]\n",
                                        "[-0.014, 0.004, -0.003]", "0.0");
   const std::string path = write_temp("cfdcli_four_wings.toml", text);
   const fs::path dir = fs::path(path).parent_path() / "cfdcli_four_wings_dir";
@@ -269,6 +273,13 @@ TEST(CfdCli, FourWingedInsectRunsWithFiveParts) {
   }
   const double yr = mean["hind_right"]["force_N"][1], yl = mean["hind_left"]["force_N"][1];
   EXPECT_NEAR(yl, -yr, 0.02 * std::abs(yr));
+  // Force partitioning: the hind wings' rows and regions.
+  for (const char* part : {"hind_right", "hind_left"}) EXPECT_TRUE(j["fpm"]["parts"].contains(part)) << part;
+  EXPECT_EQ(j["fpm"]["regions"].size(), 1u + 4 * 3);  // the wake and three regions per wing
+  std::ifstream fpm(dir / "fpm.csv");
+  const std::string fpm_text((std::istreambuf_iterator<char>(fpm)), std::istreambuf_iterator<char>());
+  EXPECT_NE(fpm_text.find(",vortex.hind_left.tip"), std::string::npos);
+  EXPECT_NE(fpm_text.find(",hind_left,Fz,N,"), std::string::npos);
   // The hind wings carry loads of their own, not a copy of the fore wings' (a smaller wing further back).
   EXPECT_NE(double(mean["hind_right"]["force_N"][2]), double(mean["right"]["force_N"][2]));
 }
