@@ -22,7 +22,7 @@ namespace {
 void plot_force_history(const std::string& dir, const ns::CfdResult& r, bool quiet) {
   std::vector<ns::CfdLoadRow> rows;
   std::string why;
-  ns::ForcesCsv csv("");
+  ns::ForcesCsv csv("", r.plan.parts);  // rows of the run's geometry: 3 parts, or 5 with a hind pair
   try {
     csv.keep_earlier(dir + "/forces.csv", r.steps);
   } catch (const InputError& e) {

@@ -542,7 +542,7 @@ FpmSettings parse_fpm(Section s) {
   f.enabled = s.boolean_or("enabled", true);
   f.samples_per_cycle = s.integer_or("samples_per_cycle", f.samples_per_cycle, 1, 100000);
   f.components = s.strings("components", f.components, {"Fx", "Fy", "Fz", "Mx", "My", "Mz", "power"});
-  f.parts = s.strings("parts", f.parts, {"body", "right", "left"});
+  f.parts = s.strings("parts", f.parts, {"body", "right", "left", "hind_right", "hind_left"});
   f.regions = s.strings("regions", f.regions, {"leading-edge", "trailing-edge", "tip"});
   f.region_size_chords = s.positive_in("region_size_chords", f.region_size_chords, 0.05, 10, "a distance in mean chords");
   f.fields_per_cycle = s.integer_or("fields_per_cycle", f.fields_per_cycle, 0, 100000);
@@ -632,10 +632,7 @@ const std::vector<std::string>& trim_parameter_names() {
 }
 
 void check_cfd_geometry(const Insect& insect, const std::string& path, const std::string& key) {
-  if (insect.hind_wing)
-    throw InputError(path, key.empty() ? "hind_wing" : key,
-                     "a four-winged insect ([hind_wing]) is not yet in the CFD geometry (one pair of wings)",
-                     "model = \"quasi-steady\" for a hind pair");
+  // A hind pair ([hind_wing]) is in the CFD geometry (parts hind_right, hind_left); the abdomen is not.
   if (insect.abdomen)
     throw InputError(path, key.empty() ? "abdomen" : key,
                      "an insect with an [abdomen] is not in the CFD geometry (one rigid body)",
@@ -712,6 +709,13 @@ Case load_case(const std::string& path) {
                                                c.aero.model + "\"",
                      "[aero] model = \"cfd\" (or remove [aero.cfd.fpm])");
   if (c.aero.model == "cfd") check_cfd_geometry(c.insect, path, "aero.model");
+  // The hind pair's parts exist only in a four-winged insect's geometry.
+  if (!c.insect.hind_wing)
+    for (const auto& p : c.aero.cfd.fpm.parts)
+      if (p == "hind_right" || p == "hind_left")
+        throw InputError(path, "aero.cfd.fpm.parts",
+                         "\"" + p + "\" is a wing of the hind pair, but the insect has none ([hind_wing])",
+                         "parts among \"body\", \"right\", \"left\" (or a [hind_wing] pair)");
 
   Section trim = top.sub("trim", false);
   c.trim.solver = trim.string("solver", false, "ipopt", {"ipopt", "nlopt"});

@@ -33,7 +33,7 @@ struct FpmSettings {
   // Load components partitioned, of "Fx" "Fy" "Fz" "Mx" "My" "Mz" (stability axes S, moments about O) and "power" (the
   // part's rate of work on the air); one influence potential per part and component is solved at every sample.
   std::vector<std::string> components = {"Fx", "Fz"};
-  std::vector<std::string> parts = {"body", "right", "left"};
+  std::vector<std::string> parts = {"body", "right", "left"};  // also "hind_right" "hind_left" with a hind pair
   // Regions of the flow around each wing, in the wing's frame, over which the vortex-induced force is integrated
   // ("leading-edge" "trailing-edge" "tip"); the rest of the flow is "wake". Definitions: docs/theory/force-partitioning.md.
   std::vector<std::string> regions = {"leading-edge", "trailing-edge", "tip"};
@@ -192,9 +192,8 @@ const std::vector<std::string>& trim_parameter_names();
 
 // Loads and validates a case file. Throws InputError(file, key, problem, expected).
 Case load_case(const std::string& path);
-// The CFD geometry is one rigid body with one pair of wings: InputError naming `path` and `key` (empty: the section,
-// "hind_wing" or "abdomen") for a hind pair or an abdomen. load_case calls it for model = "cfd", flapstab cfd for
-// every case.
+// The CFD geometry is one rigid body with one or two pairs of wings: InputError naming `path` and `key` (empty: the
+// section, "abdomen") for an abdomen. load_case calls it for model = "cfd", flapstab cfd for every case.
 void check_cfd_geometry(const Insect& insect, const std::string& path, const std::string& key = "");
 
 }  // namespace flapstab

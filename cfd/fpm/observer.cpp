@@ -1,6 +1,7 @@
 // Force partitioning during a CFD run (observer.hpp).
 #include "cfd/fpm/observer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -19,8 +20,9 @@ constexpr const char* kComponents[7] = {"Fx", "Fy", "Fz", "Mx", "My", "Mz", "pow
 constexpr const char* kUnits[7] = {"N", "N", "N", "N m", "N m", "N m", "W"};
 constexpr int kFixedColumns = 16;  // time .. solver_viscous
 
-int part_index(const std::string& name) {
-  for (int i = 0; i < 3; ++i)
+// A part's index among the `count` parts of the geometry (3, or 5 with a hind pair).
+int part_index(const std::string& name, int count = ns::max_parts) {
+  for (int i = 0; i < count; ++i)
     if (name == ns::part_names[i]) return i;
   throw std::invalid_argument("unknown part \"" + name + "\"");
 }
@@ -123,7 +125,14 @@ FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings,
                      "(rates p, q, r)",
                      "a hover or a translating body");
   for (const auto& c : settings.components) components_.push_back(component_index(c));
-  for (const auto& p : settings.parts) parts_.push_back(part_index(p));
+  for (const auto& p : settings.parts) {
+    try {
+      parts_.push_back(part_index(p, sim.part_count()));
+    } catch (const std::invalid_argument&) {
+      throw InputError(file, "aero.cfd.fpm.parts", "\"" + p + "\" is not a part of this insect's geometry",
+                       "parts among body, right, left (and hind_right, hind_left with a [hind_wing] pair)");
+    }
+  }
   for (const auto& r : settings.regions) regions_.push_back(wing_region(r));
   region_size_ = settings.region_size_chords * sim.case_file().insect.wing.mean_chord;
   rho_ = sim.plan().rho;
@@ -139,8 +148,8 @@ FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings,
   opt.moment_point = Vec3::Zero();  // O, the grid's origin: the moments of forces.csv
   partition_.emplace(sim.grid(), opt);
   region_names_.push_back("wake");
-  for (const char* w : {"right", "left"})
-    for (WingRegion r : regions_) region_names_.push_back(std::string(w) + "." + region_name(r));
+  for (int i = 1; i < sim.part_count(); ++i)  // the wings, in label_regions' order (sample)
+    for (WingRegion r : regions_) region_names_.push_back(std::string(ns::part_names[i]) + "." + region_name(r));
 }
 
 void FpmObserver::keep_earlier(const std::string& file, long step) {
@@ -191,9 +200,11 @@ std::vector<FpmRow> FpmObserver::sample(const ns::Simulation& sim) {
     unconverged_ += rep.stats.converged ? 0 : 1;
     pockets_max_ = std::max(pockets_max_, rep.pocket_cells);
   }
-  // regions in the wings' frames at this instant
-  const Wing& wing = sim.case_file().insect.wing;
-  std::vector<RegionWing> wings = {{"right", &wing, states[1].pose}, {"left", &wing, states[2].pose}};
+  // regions in the wings' frames at this instant, each wing with its own planform (a hind pair's: [hind_wing])
+  const Insect& insect = sim.case_file().insect;
+  std::vector<RegionWing> wings;
+  for (int i = 1; i < sim.part_count(); ++i)
+    wings.push_back({ns::part_names[i], i <= 2 ? &insect.wing : &*insect.hind_wing, states[std::size_t(i)].pose});
   RegionSet set = label_regions(sim.grid(), wings, regions_, region_size_);
   last_labels_ = set.labels;  // for the field output of this sample
   partition_->set_regions(std::move(set.labels), set.count());
@@ -371,10 +382,8 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
     }
   if (!any) return "";
   m.finish();
-  const bool both = std::find(parts_.begin(), parts_.end(), 1) != parts_.end() &&
-                    std::find(parts_.begin(), parts_.end(), 2) != parts_.end();
-  // the adds ran over both wings' rows: a sum per sample = mean over rows x wings
-  const double w = both ? 2.0 : 1.0;
+  // the adds ran over the partitioned wings' rows (either pair): a sum per sample = mean over rows x wings
+  const double w = double(std::count_if(parts_.begin(), parts_.end(), [](int i) { return i > 0; }));
   auto lift = [&](double fz) { return -fz * w; };
   const double L = lift(m.sp + m.sv);
   auto pc = [&](double fz) { return L != 0 ? 100.0 * lift(fz) / L : 0.0; };

@@ -1,6 +1,7 @@
 // The AeroModel over the CFD solver (cfd_model.hpp).
 #include "cfd/navier_stokes/cfd_model.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -34,6 +35,16 @@ std::string fingerprint(const Insect& insect, const Kinematics& kin) {
       const WingAngleState a = kin.angles(side, kin.period() * k / 32);
       s += fmt::format(" {:.17g} {:.17g} {:.17g}", a.phi, a.theta, a.alpha);
     }
+  // A hind pair's wing and angles (appended, so a two-winged insect's fingerprint, and its cached runs, stay as
+  // they were).
+  if (insect.hind_wing && kin.has_hind) {
+    s += fmt::format(" hind {:.17g} {:.17g}", insect.hind_wing->length, insect.hind_wing->mean_chord);
+    for (Side side : {Side::right, Side::left})
+      for (int k = 0; k < 32; ++k) {
+        const WingAngleState a = kin.angles(side, kin.period() * k / 32, Pair::hind);
+        s += fmt::format(" {:.17g} {:.17g} {:.17g}", a.phi, a.theta, a.alpha);
+      }
+  }
   return s;
 }
 
@@ -52,7 +63,8 @@ bool still(const BodyMotion& m) { return m.velocity.squaredNorm() == 0 && m.rate
 
 CfdLoadRow combine(const CfdLoadRow& a, const CfdLoadRow& b, double sign) {
   CfdLoadRow r = a;
-  for (int i = 0; i < 3; ++i) {
+  r.parts = std::max(a.parts, b.parts);  // a default (zero) row has 3 parts; the hind pair's are zero there
+  for (int i = 0; i < max_parts; ++i) {
     r.part[i].pressure_force += sign * b.part[i].pressure_force;
     r.part[i].viscous_force += sign * b.part[i].viscous_force;
     r.part[i].pressure_moment += sign * b.part[i].pressure_moment;
@@ -68,6 +80,11 @@ WrenchSample sample_of(const CfdLoadRow& row) {
   w.body = row.part[0].wrench();
   w.right = row.part[1].wrench();
   w.left = row.part[2].wrench();
+  // A hind wing's loads join those of the fore wing on its side, as in the quasi-steady model.
+  if (row.parts == max_parts) {
+    w.right += row.part[3].wrench();
+    w.left += row.part[4].wrench();
+  }
   w.power = row.wing_power;
   return w;
 }

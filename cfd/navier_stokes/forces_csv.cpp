@@ -9,18 +9,21 @@ namespace flapstab::ns {
 
 Wrench CfdLoadRow::total() const {
   Wrench w;
-  for (const auto& q : part) {
+  for (int i = 0; i < parts; ++i) {
+    const Part& q = part[i];
     w.force += q.pressure_force + q.viscous_force;
     w.moment += q.pressure_moment + q.viscous_moment;
   }
   return w;
 }
 
-std::string forces_csv_header() {
+std::string forces_csv_header(int parts) {
+  if (parts < 1 || parts > max_parts) throw std::invalid_argument("forces.csv: " + std::to_string(parts) + " parts");
   // One header row, units in the column names (pandas.read_csv and Python's csv module need no options); what the
   // columns mean (axes, origin, parts) is in run.json's "files" block and docs/cfd-files.md.
   std::string cols = "time_s,step,phase";
-  for (const char* part : part_names) {
+  for (int i = 0; i < parts; ++i) {
+    const char* part = part_names[i];
     for (const char* kind : {"p", "v"})
       for (const char* a : {"x", "y", "z"}) cols += fmt::format(",{}_F{}_{}_N", part, a, kind);
     for (const char* kind : {"p", "v"})
@@ -34,7 +37,8 @@ std::string forces_csv_header() {
 std::string forces_csv_row(const CfdLoadRow& r) {
   std::string s = fmt::format("{:.17g},{},{:.17g}", r.time, r.step, r.phase);
   auto v3 = [&](const Vec3& v) { s += fmt::format(",{:.17g},{:.17g},{:.17g}", v.x(), v.y(), v.z()); };
-  for (const auto& q : r.part) {
+  for (int i = 0; i < r.parts; ++i) {
+    const auto& q = r.part[i];
     v3(q.pressure_force);
     v3(q.viscous_force);
     v3(q.pressure_moment);
@@ -61,8 +65,13 @@ CfdLoadRow parse_forces_csv_row(const std::string& line) {
     v.push_back(x);
     pos = next + 1;
   }
-  if (v.size() != 3 + 3 * 13 + 7) throw std::invalid_argument("forces.csv: a row with " + std::to_string(v.size()) + " columns");
+  // time, step, phase; 13 per part; 7 totals
+  const std::size_t per_part = 13, fixed = 3 + 7;
+  const std::size_t parts = v.size() >= fixed ? (v.size() - fixed) / per_part : 0;
+  if (v.size() != fixed + per_part * parts || (parts != 3 && parts != std::size_t(max_parts)))
+    throw std::invalid_argument("forces.csv: a row with " + std::to_string(v.size()) + " columns");
   CfdLoadRow r;
+  r.parts = int(parts);
   r.time = v[0];
   r.step = long(v[1]);
   r.phase = v[2];
@@ -72,7 +81,8 @@ CfdLoadRow parse_forces_csv_row(const std::string& line) {
     k += 3;
     return a;
   };
-  for (auto& q : r.part) {
+  for (int i = 0; i < r.parts; ++i) {
+    auto& q = r.part[i];
     q.pressure_force = v3();
     q.viscous_force = v3();
     q.pressure_moment = v3();

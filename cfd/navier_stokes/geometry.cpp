@@ -311,33 +311,49 @@ RigidTransform wing_transform(const WingPose& pose) { return RigidTransform{pose
 
 RigidVelocity wing_velocity(const WingPose& pose) { return RigidVelocity{pose.hinge, Vec3::Zero(), pose.omega}; }
 
+const char* part_label(Pair pair, Side side) {
+  if (pair == Pair::fore) return side == Side::right ? "right" : "left";
+  return side == Side::right ? "hind_right" : "hind_left";
+}
+
 InsectSurfaces::InsectSurfaces(const Configuration& config, const MeshResolution& resolution) : config_(config) {
   const Insect& insect = config.insect();
   TriangleMesh body =
       ellipsoid_mesh(Vec3(insect.body.length, insect.body.width, insect.body.height), resolution.body);
   body.label = "body";
-  TriangleMesh wing = wing_mesh(insect.wing, resolution.wing_span, resolution.wing_chord);
-  TriangleMesh right = wing, left = wing;
-  right.label = "right";
-  left.label = "left";
-  reference_ = {std::move(body), std::move(right), std::move(left)};
+  reference_.push_back(std::move(body));
+  // Each pair's left wing is the right wing's mesh: its pose mirrors it (det R = -1, TriangleMesh::transformed).
+  for (Pair pair : {Pair::fore, Pair::hind}) {
+    if (pair == Pair::hind && !insect.hind_wing) break;
+    const TriangleMesh wing = wing_mesh(insect.pair_wing(pair), resolution.wing_span, resolution.wing_chord);
+    for (Side s : {Side::right, Side::left}) {
+      reference_.push_back(wing);
+      reference_.back().label = part_label(pair, s);
+    }
+  }
 }
 
-std::array<PartPose, 3> insect_part_poses(const Configuration& config, double t) {
-  std::array<PartPose, 3> p;
+int insect_part_count(const Insect& insect) { return insect.hind_wing ? 5 : 3; }
+
+std::vector<PartPose> insect_part_poses(const Configuration& config, double t) {
+  std::vector<PartPose> p(std::size_t(insect_part_count(config.insect())));
   p[0].pose = RigidTransform{config.anatomical_to_stability(), config.body_centre()};
-  for (Side s : {Side::right, Side::left}) {
-    const WingPose w = config.wing_pose(s, t);
-    PartPose& q = p[s == Side::right ? 1 : 2];
-    q.pose = wing_transform(w);
-    q.motion = wing_velocity(w);
+  std::size_t i = 1;
+  for (Pair pair : {Pair::fore, Pair::hind}) {
+    if (pair == Pair::hind && !config.insect().hind_wing) break;
+    for (Side s : {Side::right, Side::left}) {
+      const WingPose w = config.wing_pose(s, t, pair);
+      PartPose& q = p[i++];
+      q.pose = wing_transform(w);
+      q.motion = wing_velocity(w);
+    }
   }
   return p;
 }
 
 std::vector<MeshPart> InsectSurfaces::at(double t) const {
-  const std::array<PartPose, 3> poses = insect_part_poses(config_, t);
-  std::vector<MeshPart> parts(3);
+  const std::vector<PartPose> poses = insect_part_poses(config_, t);
+  std::vector<MeshPart> parts(reference_.size());
   for (std::size_t i = 0; i < parts.size(); ++i) {
     parts[i].pose = poses[i].pose;
     parts[i].motion = poses[i].motion;

@@ -94,6 +94,8 @@ void triangulate_rows(TriangleMesh& m, const std::vector<std::vector<int>>& rows
 RigidTransform wing_transform(const WingPose& pose);
 // The wing's rigid velocity relative to the body frame: v = omega x (x - hinge).
 RigidVelocity wing_velocity(const WingPose& pose);
+// A wing's part label: "right", "left" (fore pair), "hind_right", "hind_left" (forces.csv, run.json, surfaces).
+const char* part_label(Pair pair, Side side);
 
 struct MeshResolution {
   int body = 16;        // ellipsoid cube-sphere divisions per face edge (12 n^2 triangles)
@@ -107,12 +109,15 @@ struct PartPose {
   RigidTransform pose;
   RigidVelocity motion;
 };
-// Body, right wing, left wing (the order of InsectSurfaces::at), without moving any mesh.
-std::array<PartPose, 3> insect_part_poses(const Configuration& config, double t);
+// Body, right wing, left wing, and for a four-winged insect the hind pair's right and left wing (the order of
+// InsectSurfaces::at and forces_csv.hpp's part_names), without moving any mesh.
+std::vector<PartPose> insect_part_poses(const Configuration& config, double t);
+// The number of parts in the CFD geometry: 3, or 5 with a hind pair.
+int insect_part_count(const Insect& insect);
 
 // One rigid part of the insect at an instant, in stability axes S (origin O, m).
 struct MeshPart {
-  TriangleMesh mesh;            // label "body", "right" or "left"
+  TriangleMesh mesh;            // label "body", "right", "left", "hind_right" or "hind_left"
   RigidTransform pose;          // reference frame (body: A at the body CoM; wing: wing frame) -> S
   RigidVelocity motion;         // velocity relative to the body frame (zero for the body)
 };
@@ -122,7 +127,8 @@ class InsectSurfaces {
  public:
   InsectSurfaces(const Configuration& config, const MeshResolution& resolution);
   // Body (closed ellipsoid, anatomical axes rotated into S, centred at the body CoM), right and left wing
-  // (membranes placed by Configuration::wing_pose), in that order.
+  // (membranes placed by Configuration::wing_pose), then the hind pair's right and left wing (their own planform,
+  // placed by Configuration::wing_pose(side, t, Pair::hind)) when the insect has one, in that order.
   std::vector<MeshPart> at(double t) const;
   // The reference meshes, in the order of at().
   const std::vector<TriangleMesh>& reference() const { return reference_; }

@@ -23,7 +23,8 @@ class InsectMotion {
   // `config` must outlive this.
   InsectMotion(const Configuration& config, const BodyMotion& motion) : config_(&config), motion_(motion) {}
   const BodyMotion& body_motion() const { return motion_; }
-  // Body, right wing, left wing in grid (= body) axes at time t, velocities relative to the grid.
+  // Body, right wing, left wing (then the hind pair's right and left wing for a four-winged insect) in grid (= body)
+  // axes at time t, velocities relative to the grid.
   std::vector<PartState> parts(double t) const;
   // Velocity of the still air far away, seen from the grid: -V - Omega x x.
   Vec3 far_field(const Vec3& x) const { return -motion_.velocity - motion_.rate.cross(x); }

@@ -46,6 +46,9 @@ void ForcesCsv::keep_earlier(const std::string& file, long step, long first_step
     CfdLoadRow r;
     try {
       r = parse_forces_csv_row(line);
+      // a row cut short by a kill can still be one of fewer parts
+      if (r.parts != parts_)
+        throw std::invalid_argument(fmt::format("{} parts where this geometry has {}", r.parts, parts_));
     } catch (const std::exception& e) {
       if (expect > step) break;  // rows past the checkpoint are dropped anyway (a kill while they were written)
       throw InputError(file, "line " + std::to_string(number), std::string("damaged row: ") + e.what(),
@@ -75,7 +78,7 @@ void ForcesCsv::on_step(const Simulation&, const StepReport& r) {
 
 void ForcesCsv::flush() const {
   if (path_.empty()) return;
-  std::string text = forces_csv_header();
+  std::string text = forces_csv_header(parts_);
   for (const auto& l : lines_) text += l;
   write_file_atomic(path_, text);
 }
@@ -164,8 +167,9 @@ void SurfaceOutput::write(const Simulation& sim) {
   if (!writer_) writer_.emplace(dir_, "surfaces");
   std::vector<TriangleMesh> meshes;
   std::vector<SurfacePart> parts;
-  for (int i = 0; i < 3; ++i) meshes.push_back(sim.surface(i));
-  for (int i = 0; i < 3; ++i) {
+  const int n = sim.part_count();
+  for (int i = 0; i < n; ++i) meshes.push_back(sim.surface(i));
+  for (int i = 0; i < n; ++i) {
     const SurfacePressure sp = sim.surface_pressure(i);
     SurfacePart part{&meshes[std::size_t(i)], {}};
     part.data.cell_data.push_back({"pressure", "Pa", 1, sp.front});

@@ -30,7 +30,8 @@ bool crossed(int per_cycle, double period, double ta, double tb);
 // restart the rows of the interrupted run up to the checkpoint come first.
 class ForcesCsv final : public StepObserver {
  public:
-  explicit ForcesCsv(std::string path) : path_(std::move(path)) {}
+  // `parts`: the geometry's part count (Simulation::part_count), for the header.
+  explicit ForcesCsv(std::string path, int parts = 3) : path_(std::move(path)), parts_(parts) {}
   // Reads the rows of an earlier forces.csv up to and including `step` (a restart from that step). They must be
   // there, steps first_step ... step in order: otherwise InputError naming the file and the line.
   void keep_earlier(const std::string& file, long step, long first_step = 1);
@@ -44,6 +45,7 @@ class ForcesCsv final : public StepObserver {
 
  private:
   std::string path_;
+  int parts_ = 3;
   std::vector<CfdLoadRow> rows_, earlier_;
   std::vector<std::string> lines_;
 };

@@ -2,12 +2,15 @@
 #include "cfd/navier_stokes/plan.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <fmt/format.h>
 
 #include "cfd/navier_stokes/insect_motion.hpp"
+#include "cfd/navier_stokes/mesh_query.hpp"
 #include "core/configuration.hpp"
 #include "core/errors.hpp"
 
@@ -38,8 +41,9 @@ std::size_t estimated_bytes(const CfdPlan& plan) {
   const double with_ghosts = double(sh.size());
   // Solver: 14 double arrays (u, u*, N_prev, phi: 3 each; p, div) + flags; Poisson: 3 double Krylov vectors and
   // 3 float arrays per multigrid level (a geometric series, 8/7 of the finest); immersed boundary: one float level
-  // set per part (3); a field output: cell-centred u, vorticity (3 each), Q and pressure as doubles (8).
-  const double per_cell = 14 * 8 + 1 + 3 * 8 + 3 * 4 * 8.0 / 7.0 + 3 * 4 + 8 * 8;
+  // set per part (3, or 5 with a hind pair); a field output: cell-centred u, vorticity (3 each), Q and pressure as
+  // doubles (8).
+  const double per_cell = 14 * 8 + 1 + 3 * 8 + 3 * 4 * 8.0 / 7.0 + plan.parts * 4 + 8 * 8;
   return std::size_t(with_ghosts * per_cell) + (std::size_t(64) << 20);  // + meshes, tables, the program
 }
 
@@ -68,6 +72,32 @@ void check_memory(const CfdPlan& plan, const std::string& case_path, std::size_t
                                "{:.1f} cells per chord, or a smaller domain (fine_margin_R, upstream_R ...)",
                                plan.chord_cells * std::cbrt(double(available) / double(need))));
 }
+
+namespace {
+
+// The edges of a mesh, each once (vertex index pairs).
+std::vector<std::array<int, 2>> mesh_edges(const TriangleMesh& m) {
+  std::vector<std::array<int, 2>> e;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) e.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+  std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end()), e.end());
+  return e;
+}
+
+// Whether wing `a` (its reference mesh, placed by `pose`) passes through or touches the placed wing `b`: an edge of
+// a that crosses b, or a vertex of a within `touch` (m) of it.
+bool wings_meet(const TriangleMesh& a, const std::vector<std::array<int, 2>>& edges, const RigidTransform& pose,
+                const MeshQuery& b, double touch) {
+  for (const Vec3& v : a.vertices)
+    if (b.closest(pose.apply(v), touch).found()) return true;
+  for (const auto& e : edges)
+    if (b.first_crossing(pose.apply(a.vertices[std::size_t(e[0])]), pose.apply(a.vertices[std::size_t(e[1])])))
+      return true;
+  return false;
+}
+
+}  // namespace
 
 CfdPlan plan_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, int cycles_override) {
   return plan_cfd(c, kin, std::vector<BodyMotion>{motion}, cycles_override);
@@ -106,7 +136,21 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
   const InsectSurfaces surfaces(config, mesh_resolution(s));
   const auto& ref = surfaces.reference();
   // Swept volume: every vertex of every part over one wingbeat (the grid is fixed to the body, so body motions
-  // do not move the insect in it).
+  // do not move the insect in it). Every part: a hind pair's swept region is in the box, and so in the fine box and
+  // the domain built around it, whatever its hinge, span or phase.
+  // A four-winged insect's pairs must not cut through each other: the immersed boundary treats two parts that come
+  // within a few cells (an unresolved gap, ImmersedOptions::contact), not one membrane passing through another or
+  // two that coincide (a hind pair identical to the fore pair at the same hinge). Checked at the same instants as
+  // the swept volume, wing against wing of the same side: an edge of one that crosses the other, or a vertex closer
+  // to it than 1e-6 R.
+  std::optional<MeshQuery> fore_query, hind_query;
+  std::vector<std::array<int, 2>> fore_edges, hind_edges;
+  if (ref.size() == 5) {
+    fore_query.emplace(ref[1]);
+    hind_query.emplace(ref[3]);
+    fore_edges = mesh_edges(ref[1]);
+    hind_edges = mesh_edges(ref[3]);
+  }
   BoundingBox box;
   for (const Kinematics& k : kinematics) {
     const Configuration conf(c.insect, k);
@@ -115,14 +159,31 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
     for (int j = 0; j <= samples; ++j) {
       const double t = k.period() * j / samples;
       const auto parts = im.parts(t);
-      for (int i = 0; i < 3; ++i)
-        for (const Vec3& v : ref[std::size_t(i)].vertices) {
-          const Vec3 x = parts[std::size_t(i)].pose.apply(v);
+      for (std::size_t i = 0; i < ref.size(); ++i)
+        for (const Vec3& v : ref[i].vertices) {
+          const Vec3 x = parts[i].pose.apply(v);
           box.add(x);
-          if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, parts[std::size_t(i)].velocity.at(x).norm());
+          if (i > 0) p.tip_speed_max = std::max(p.tip_speed_max, parts[i].velocity.at(x).norm());
         }
+      if (!fore_query) continue;
+      for (std::size_t side = 0; side < 2; ++side) {  // parts 1 and 3 (right), 2 and 4 (left)
+        const PartState &fore = parts[1 + side], &hind = parts[3 + side];
+        fore_query->set_pose(fore.pose);
+        hind_query->set_pose(hind.pose);
+        if (wings_meet(ref[3], hind_edges, hind.pose, *fore_query, 1e-6 * R) ||
+            wings_meet(ref[1], fore_edges, fore.pose, *hind_query, 1e-6 * R))
+          throw InputError(file, "hind_wing.hinge_m",
+                           fmt::format("the {} hind wing meets the {} fore wing at t/T = {:.4g}{}: the CFD geometry "
+                                       "does not model wings that cut through each other or coincide",
+                                       side == 0 ? "right" : "left", side == 0 ? "right" : "left", double(j) / samples,
+                                       kinematics.size() > 1 && &k != &kinematics.front() ? " (of kinematics asked of "
+                                                                                            "the CFD model)" : ""),
+                           "a hind wing hinged, sized ([hind_wing]) or phased ([kinematics.hind] phase_deg) so that "
+                           "the two pairs stay apart");
+      }
     }
   }
+  p.parts = int(ref.size());
   p.swept_lo = box.lo;
   p.swept_hi = box.hi;
   p.h = s.cells_per_wing_length > 0 ? R / s.cells_per_wing_length : cbar / s.cells_per_chord;
@@ -185,6 +246,11 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
   if (p.chord_cells < 8)
     p.warnings.push_back(fmt::format("the mean chord spans only {:.2f} fine cells: loads will be rough "
                                      "(8 or more recommended; key {})", p.chord_cells, res_key));
+  // The resolution is set on the fore wing's chord; a narrower hind wing is resolved by fewer cells.
+  if (c.insect.hind_wing && c.insect.hind_wing->mean_chord / p.h_actual < 8)
+    p.warnings.push_back(fmt::format("the hind wing's mean chord ({:.4g} m) spans only {:.2f} fine cells: its loads will "
+                                     "be rough (8 or more recommended; key {})", c.insect.hind_wing->mean_chord,
+                                     c.insect.hind_wing->mean_chord / p.h_actual, res_key));
   if (s.stretch_ratio > 1.08)
     p.warnings.push_back(fmt::format("stretch_ratio = {} above 1.08: the multigrid preconditioner converges more "
                                      "slowly on strongly stretched cells", s.stretch_ratio));

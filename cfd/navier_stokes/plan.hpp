@@ -29,7 +29,8 @@ struct CfdPlan {
   double rho = 0, nu = 0;         // kg/m^3, m^2/s
   double u_ref = 0, l_ref = 0, reynolds = 0;
   double period = 0;              // s
-  double tip_speed_max = 0;       // largest wingtip speed over the cycle (m/s), for the CFL check of a fixed dt
+  int parts = 3;                  // parts of the insect's geometry: 3, or 5 with a hind pair
+  double tip_speed_max = 0;       // largest wingtip speed over the cycle, either pair (m/s), for the CFL check of a fixed dt
   double body_speed_max = 0;      // largest far-field speed |V| + |Omega| r of the planned motions (m/s)
   int cycles = 1;
   int steps_per_cycle = 0;        // 0: adaptive dt

@@ -96,7 +96,7 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
     result["wing_power_W"] = r.wing_power;
     result["weight_N"] = r.weight;
     result["lift_over_weight"] = r.lift_over_weight;
-    for (int i = 0; i < 3; ++i)
+    for (int i = 0; i < r.parts; ++i)
       result["parts"][part_names[i]] = {{"force_N", vec(r.part_mean[i].force)}, {"moment_N_m", vec(r.part_mean[i].moment)}};
   }
   j["status"] = res.status;
@@ -104,9 +104,9 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
   // The same window under its earlier name (kept for readers of older run.json files).
   nlohmann::json mean;
   if (r.available) {
-    for (int i = 0; i < 4; ++i) {
-      const Wrench& w = i == 3 ? r.mean : r.part_mean[i];
-      mean[i == 3 ? "total" : part_names[i]] = {{"force_N", vec(w.force)}, {"moment_N_m", vec(w.moment)}};
+    for (int i = 0; i <= r.parts; ++i) {
+      const Wrench& w = i == r.parts ? r.mean : r.part_mean[i];
+      mean[i == r.parts ? "total" : part_names[i]] = {{"force_N", vec(w.force)}, {"moment_N_m", vec(w.moment)}};
     }
     mean["wing_power_W"] = r.wing_power;
     mean["from_s"] = r.from_s;
@@ -118,10 +118,11 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
       {"axes", "hover stability axes S (x forward, y right, z down), body-fixed; origin O = wingbeat-mean centre of "
                "mass; moments about O"},
       {"units", "time s, force N, moment N m, power W; phase = t / T modulo 1"},
-      {"columns", "PART_F{x,y,z}_{p,v}_N, PART_M{x,y,z}_{p,v}_N_m, PART_P_W for PART = body, right, left (p = "
-                  "pressure part, v = viscous part, P = the part's rate of work on the air); F{x,y,z}_N, "
-                  "M{x,y,z}_N_m = totals; wing_power_W = the wings' work on the air through their motion relative "
-                  "to the body"}};
+      {"columns", std::string("PART_F{x,y,z}_{p,v}_N, PART_M{x,y,z}_{p,v}_N_m, PART_P_W for PART = ") +
+                      (r.parts == max_parts ? "body, right, left, hind_right, hind_left" : "body, right, left") +
+                      " (p = pressure part, v = viscous part, P = the part's rate of work on the air); F{x,y,z}_N, "
+                      "M{x,y,z}_N_m = totals; wing_power_W = the wings' work on the air through their motion "
+                      "relative to the body"}};
   if (!res.fpm_means_json.empty()) {
     j["fpm"] = nlohmann::json::parse(res.fpm_means_json);
     j["files"]["fpm.csv"] = {
@@ -243,7 +244,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   // Observers (files created lazily: bad input and dry runs write nothing). One run per directory at a time.
   std::optional<ExclusiveRun> exclusive;
   if (write) exclusive.emplace(o.directory, "-o");
-  ForcesCsv csv(write ? o.directory + "/forces.csv" : std::string());
+  ForcesCsv csv(write ? o.directory + "/forces.csv" : std::string(), sim.part_count());
   if (write && ck) csv.keep_earlier(o.directory + "/forces.csv", start_step);  // InputError when rows are missing
   Checkpointer checkpoints(ckdir, s.checkpoints_per_cycle,
                            {{"reynolds", plan.reynolds}, {"nu", plan.nu}, {"density", plan.rho}, {"period", plan.period}},
@@ -421,7 +422,8 @@ CfdRunResult cfd_run_result(const std::vector<CfdLoadRow>& rows, const CfdPlan& 
   };
   r.mean.force = avg([](const CfdLoadRow& x) -> Vec3 { return x.total().force; });
   r.mean.moment = avg([](const CfdLoadRow& x) -> Vec3 { return x.total().moment; });
-  for (int i = 0; i < 3; ++i) {
+  r.parts = w.back()->parts;
+  for (int i = 0; i < r.parts; ++i) {
     r.part_mean[i].force = avg([i](const CfdLoadRow& x) -> Vec3 { return x.part[i].wrench().force; });
     r.part_mean[i].moment = avg([i](const CfdLoadRow& x) -> Vec3 { return x.part[i].wrench().moment; });
   }

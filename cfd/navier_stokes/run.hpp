@@ -43,7 +43,8 @@ struct CfdRunResult {
   bool includes_startup = false;  // the window is (part of) the first wingbeat from rest: not a hover result
   double from_s = 0, to_s = 0;
   Wrench mean;                // N, N m about O, stability axes
-  Wrench part_mean[3];        // body, right, left
+  Wrench part_mean[max_parts];  // body, right, left[, hind_right, hind_left] (part_names)
+  int parts = 3;              // parts in part_mean: 3, or 5 with a hind pair
   double wing_power = 0;      // W
   double weight = 0;          // N
   double lift_over_weight = 0;  // -F_z / (m g)

@@ -74,23 +74,26 @@ struct Simulation::Impl : StageHooks {
   CfdLoadRow row;
   bool have_row = false;
   // Volume moments of the closed parts (the body: fixed in the body's frame, so computed once).
-  std::array<std::optional<VolumeMoments>, 3> closed;
+  std::vector<std::optional<VolumeMoments>> closed;
+  int parts = 3;  // parts of the geometry (insect_part_count): the loads' rows carry as many
 
   double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
       : config(c.insect, kin), motion(config, m),
-        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m)), rho(plan.rho) {
+        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m)), parts(insect_part_count(c.insect)),
+        rho(plan.rho) {
     if (o.initial_velocity) solver.initialise([&](double x, double y, double z) { return o.initial_velocity(x, y, z); });
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
       const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
       ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho, .contact = o.contact});
       const auto start = motion.parts(0.0);
-      for (int i = 0; i < 3; ++i) ib->add_part(surfaces.reference()[std::size_t(i)], start[std::size_t(i)]);
+      const std::size_t n = surfaces.reference().size();
+      for (std::size_t i = 0; i < n; ++i) ib->add_part(surfaces.reference()[i], start[i]);
       exchange = c.aero.cfd.loads == "exchange";
-      for (int i = 0; i < 3; ++i)
-        if (!surfaces.reference()[std::size_t(i)].membrane)
-          closed[std::size_t(i)] = volume_moments(surfaces.reference()[std::size_t(i)].transformed(start[std::size_t(i)].pose));
+      closed.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        if (!surfaces.reference()[i].membrane) closed[i] = volume_moments(surfaces.reference()[i].transformed(start[i].pose));
       attach();
     }
   }
@@ -113,11 +116,12 @@ struct Simulation::Impl : StageHooks {
     r.step = step;
     r.phase = tb / period - std::floor(tb / period + 1e-12);
     if (r.phase < 0) r.phase = 0;
+    r.parts = parts;
     if (!ib) return r;
     const auto loads = exchange ? ib->exchange_loads(solver, Vec3::Zero()) : ib->loads(solver, Vec3::Zero());
-    const auto parts = motion.parts(tb);
+    const auto states = motion.parts(tb);
     const Vec3& W = motion.body_motion().rate;
-    for (int i = 0; i < 3; ++i) {
+    for (int i = 0; i < parts; ++i) {
       const PartLoads& L = loads[std::size_t(i)];
       auto& q = r.part[i];
       q.pressure_force = L.pressure_force;
@@ -134,8 +138,8 @@ struct Simulation::Impl : StageHooks {
           q.pressure_moment += rho * (v->second * W).cross(W);
         }
       }
-      if (i > 0) {  // wing's work through its motion relative to the body: -(F . v_c + M_c . omega)
-        const RigidVelocity& g = parts[std::size_t(i)].velocity;
+      if (i > 0) {  // a wing's (either pair's) work through its motion relative to the body: -(F . v_c + M_c . omega)
+        const RigidVelocity& g = states[std::size_t(i)].velocity;
         const Vec3 F = L.force(), Mc = L.moment() - g.centre.cross(F);
         r.wing_power += -(F.dot(g.velocity) + Mc.dot(g.omega));
       }
@@ -161,6 +165,7 @@ std::size_t Simulation::cells() const { return grid().cells(); }
 std::size_t Simulation::bytes() const { return impl_->solver.bytes() + (impl_->ib ? impl_->ib->bytes() : 0); }
 bool Simulation::has_bodies() const { return impl_->ib.has_value(); }
 const ImmersedBoundary* Simulation::immersed() const { return impl_->ib ? &*impl_->ib : nullptr; }
+int Simulation::part_count() const { return impl_->parts; }
 std::vector<PartState> Simulation::part_states() const {
   if (!impl_->ib) return {};
   return impl_->motion.parts(time());
@@ -225,9 +230,11 @@ StepReport Simulation::advance() {
   r.time = m.solver.time();
   r.row = m.compute_row(plan_.period, step_);
   bool finite = std::isfinite(m.solver.kinetic_energy()) && std::isfinite(r.row.wing_power);
-  for (const auto& q : r.row.part)
+  for (int i = 0; i < r.row.parts; ++i) {
+    const auto& q = r.row.part[i];
     finite = finite && q.pressure_force.allFinite() && q.viscous_force.allFinite() && q.pressure_moment.allFinite() &&
              q.viscous_moment.allFinite() && std::isfinite(q.power);
+  }
   if (!finite) throw StepFailure(step_, r.time, "the solution or the loads are not finite");
   r.cfl = m.solver.cfl(r.dt);
   if (!(r.cfl <= rk3_cfl_limit)) {

@@ -1,6 +1,6 @@
 // The CFD run as a stepping simulation: planned, restored from a state, advanced one step at a time, observed.
 //
-//   Simulation sim(case, kin, motion, plan);      // grid, boundaries, solver, the insect's three immersed parts
+//   Simulation sim(case, kin, motion, plan);      // grid, boundaries, solver, the insect's immersed parts (3 or 5)
 //   sim.restore(state);                           // optional: an exact continuation (checkpoint, kept hover state)
 //   while (...) { StepReport r = sim.advance(); } // one RK3 step, the loads of every part, finiteness/CFL checks
 //
@@ -98,10 +98,14 @@ class Simulation {
   bool has_bodies() const;
   // The loads at the current time (the last step's row; before any step, computed).
   CfdLoadRow loads() const;
-  // Surface of a part (0 body, 1 right, 2 left) at the current time, grid axes, and its pressure (Pa).
+  // Parts of the insect's geometry: 3 (body, right, left), or 5 with a hind pair (hind_right, hind_left; part_names).
+  // The loads' rows carry as many, zero without bodies.
+  int part_count() const;
+  // Surface of a part (0 body, 1 right, 2 left, 3 hind_right, 4 hind_left) at the current time, grid axes, and its
+  // pressure (Pa).
   TriangleMesh surface(int part) const;
   SurfacePressure surface_pressure(int part) const;
-  // The parts' kinematics at the current time (body, right, left; grid axes); empty without bodies.
+  // The parts' kinematics at the current time (the order of part_names; grid axes); empty without bodies.
   std::vector<PartState> part_states() const;
   // The immersed boundary holding the parts (nullptr for a body-free simulation).
   const ImmersedBoundary* immersed() const;

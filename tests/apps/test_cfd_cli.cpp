@@ -1,12 +1,16 @@
 // End-to-end tests of `flapstab cfd`: bad input exits with status 2 and writes nothing.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include "common/case_text.hpp"
+#include "core/types.hpp"
 
 namespace flapstab {
 namespace {
@@ -189,6 +193,115 @@ TEST(CfdCli, RunThenRestartForMoreCycles) {
   EXPECT_EQ(fs::last_write_time(dir / "run.json"), stamp);
   std::ifstream again(dir / "run.json");
   EXPECT_EQ(nlohmann::json::parse(again), j);
+}
+
+// A four-winged insect: the hind pair ([hind_wing], [kinematics.hind]) is in the CFD geometry as two more parts,
+// hind_right and hind_left. Its wing is its own (rectangular, 40 mm by 12 mm), hinged 20 mm behind the fore wing and
+// flapping the fore pair's gentle wingbeat in phase, so the two pairs stay about 15 mm apart. One wingbeat on the
+// tiny grid: forces.csv, run.json and the surfaces carry all five parts; the five parts' mean loads sum to the total
+// (the hind pair's loads are in it), and, the kinematics and geometry being symmetric, the hind wings' mean side
+// forces mirror each other (tolerance as RunThenRestartForMoreCycles's for the fore pair; measured 0.068 %).
+// The gentle wingbeat of RunThenRestartForMoreCycles with a hind pair of its own (rectangular, 40 mm by 12 mm) hinged
+// at `hinge` (m, A axes) and flapping the same angles `phase_deg` ahead.
+std::string four_winged(const std::string& keys, const std::string& hinge, const std::string& phase_deg) {
+  std::string text = with_cfd(std::string(tiny) + keys);
+  text = replace(replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]", "sin_deg = [-10.0]");
+  text = replace(text, "[kinematics]\n",
+                 "[hind_wing]\nlength_m = 0.040\nmean_chord_m = 0.012\nplanform = \"rectangular\"\n"
+                 "pitch_axis_chord_fraction = 0.25\nmass_kg = 20e-6\nhinge_m = " + hinge + "\n\n[kinematics]\n");
+  return replace(text, "[fluid]\n",
+                 "[kinematics.hind]\nphase_deg = " + phase_deg + "\n[kinematics.hind.stroke]\nmean_deg = 0.0\n"
+                 "cos_deg = [-10.0]\nsin_deg = [0.0]\n[kinematics.hind.pitch]\nmean_deg = 90.0\ncos_deg = [0.0]\n"
+                 "sin_deg = [-10.0]\n\n[fluid]\n");
+}
+
+TEST(CfdCli, FourWingedInsectRunsWithFiveParts) {
+  // With force partitioning of the four wings (their parts and regions named after them).
+  const std::string text = four_winged("steps_per_cycle = 60\nreynolds = 20\nfields_per_cycle = 0\n"
+                                       "surfaces_per_cycle = 1\ncheckpoints_per_cycle = 1\n[aero.cfd.fpm]\n"
+                                       "samples_per_cycle = 4\ncomponents = [\"Fz\"]\n"
+                                       "parts = [\"right\", \"left\", \"hind_right\", \"hind_left\"]\n",
+                                       "[-0.014, 0.004, -0.003]", "0.0");
+  const std::string path = write_temp("cfdcli_four_wings.toml", text);
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_four_wings_dir";
+  fs::remove_all(dir);
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find("no forces.svg"), std::string::npos) << r.err;  // the plot reads the five-part rows back
+  for (const char* f : {"surfaces/surfaces_hind_right_000060.vtp", "surfaces/surfaces_hind_left_000060.vtp",
+                        "surfaces/surfaces_right_000060.vtp", "forces.svg"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+
+  // forces.csv: 13 columns per part for the five parts, then the totals.
+  std::ifstream csv(dir / "forces.csv");
+  std::string header;
+  std::getline(csv, header);
+  for (const char* col : {"body_Fx_p_N", "left_P_W", "hind_right_Fx_p_N", "hind_right_Mz_v_N_m", "hind_left_P_W",
+                          "Fz_N", "wing_power_W"})
+    EXPECT_NE(header.find(std::string(",") + col), std::string::npos) << col << " in " << header;
+  const auto columns = [](const std::string& line) { return 1 + std::count(line.begin(), line.end(), ','); };
+  EXPECT_EQ(columns(header), 3 + 5 * 13 + 7);
+  int rows = 0;
+  for (std::string line; std::getline(csv, line); ++rows) ASSERT_EQ(columns(line), 3 + 5 * 13 + 7) << line;
+  EXPECT_EQ(rows, 60);
+
+  std::ifstream in(dir / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["status"], "complete");
+  const auto& mean = j["mean_loads_last_cycle"];
+  Vec3 sum = Vec3::Zero(), total = Vec3::Zero();
+  double scale = 0;  // N: the parts' loads, against which round-off is measured
+  for (const char* part : {"body", "right", "left", "hind_right", "hind_left"}) {
+    ASSERT_TRUE(mean.contains(part)) << part;
+    ASSERT_TRUE(j["result"]["parts"].contains(part)) << part;
+    Vec3 f;
+    for (int a = 0; a < 3; ++a) f[a] = double(mean[part]["force_N"][std::size_t(a)]);
+    sum += f;
+    scale += f.norm();
+  }
+  for (int a = 0; a < 3; ++a) total[a] = double(mean["total"]["force_N"][std::size_t(a)]);
+  EXPECT_LT((sum - total).norm(), 1e-12 * scale) << "parts " << sum.transpose() << ", total " << total.transpose();
+  // The fore pair's side forces are printed, not checked here: with the hind pair within the forcing bands' reach
+  // (the gap law between the pairs) the solver's unresolved mirror asymmetry (docs/validation.md, "Mirror symmetry"
+  // and "Four wings") leaves them 3.6 % apart in this run; RunThenRestartForMoreCycles checks them without a hind pair.
+  for (const char* pair : {"", "hind_"}) {
+    const std::string right = std::string(pair) + "right", left = std::string(pair) + "left";
+    const double yr = mean[right]["force_N"][1], yl = mean[left]["force_N"][1];
+    std::printf("    %s: mean F_y = %.6g N, %s: %.6g N; |y_l + y_r| / |y_r| = %.3g; mean F_z = %.6g N\n", right.c_str(),
+                yr, left.c_str(), yl, std::abs(yl + yr) / std::abs(yr), double(mean[right]["force_N"][2]));
+    EXPECT_GT(std::abs(yr), 0.0) << right;
+  }
+  const double yr = mean["hind_right"]["force_N"][1], yl = mean["hind_left"]["force_N"][1];
+  EXPECT_NEAR(yl, -yr, 0.02 * std::abs(yr));
+  // Force partitioning: the hind wings' rows and regions.
+  for (const char* part : {"hind_right", "hind_left"}) EXPECT_TRUE(j["fpm"]["parts"].contains(part)) << part;
+  EXPECT_EQ(j["fpm"]["regions"].size(), 1u + 4 * 3);  // the wake and three regions per wing
+  std::ifstream fpm(dir / "fpm.csv");
+  const std::string fpm_text((std::istreambuf_iterator<char>(fpm)), std::istreambuf_iterator<char>());
+  EXPECT_NE(fpm_text.find(",vortex.hind_left.tip"), std::string::npos);
+  EXPECT_NE(fpm_text.find(",hind_left,Fz,N,"), std::string::npos);
+  // The hind wings carry loads of their own, not a copy of the fore wings' (a smaller wing further back).
+  EXPECT_NE(double(mean["hind_right"]["force_N"][2]), double(mean["right"]["force_N"][2]));
+}
+
+// Wings that cut through each other are not in what the immersed boundary models: a hind pair hinged 5 mm behind the
+// fore pair and flapping half a wingbeat out of phase with it crosses it at the tips (the two strokes swap the
+// pairs' order along x while their chords overlap in height). Refused before anything is written, naming the file
+// and the hind wing's hinge, with the instant it happens; in phase the same pairs would pass (FourWingedInsect...).
+TEST(CfdCli, HindPairCrossingTheForePairIsBadInput) {
+  const std::string path = write_temp("cfdcli_crossing_wings.toml",
+                                      four_winged("steps_per_cycle = 60\nreynolds = 20\n", "[0.001, 0.004, -0.003]",
+                                                  "180.0"));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_crossing_wings_dir";
+  fs::remove_all(dir);
+  for (const char* extra : {"", " --dry-run"}) {
+    const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + extra);
+    EXPECT_EQ(r.status, 2) << extra << ": " << r.err;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("hind_wing.hinge_m"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("hind wing meets the"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir)) << extra;
+  }
 }
 
 // SIGINT ends a run at the end of the step with a checkpoint and the rows up to it (exit 130); --restart goes on

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include "common/case_text.hpp"
+#include "common/expect_error.hpp"
 #include "core/case_file.hpp"
 #include "core/rotation.hpp"
 
@@ -252,11 +253,28 @@ void expect_refused(const std::string& command, const std::string& case_path, co
   EXPECT_FALSE(fs::exists(dir)) << command;
 }
 
-TEST(Examples, CfdRefusesTheAbdomen) {
-  // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything.
+TEST(Examples, CfdRefusesTheAbdomenButTakesTheHindPair) {
+  // The CFD geometry is one rigid body: flapstab cfd refuses the abdomen before writing anything, and so does the
+  // CFD model (the key: [aero] model).
   expect_refused("cfd", source + "/data/examples/abdomen_hawkmoth.toml", "abdomen");
-  // Nor does it hold a hind pair: a four-winged quasi-steady case is refused, not run with the fore pair only.
-  expect_refused("cfd", source + "/data/examples/four_wing_hawkmoth.toml", "hind_wing");
+  const std::string abdomen_cfd = testing::write_temp(
+      "abdomen_cfd.toml", edited("data/examples/abdomen_hawkmoth.toml", {{"model = \"quasi-steady\"", "model = \"cfd\""}}));
+  const std::string why = testing::expect_input_error([&] { load_case(abdomen_cfd); }, "aero.model", abdomen_cfd);
+  EXPECT_NE(why.find("abdomen"), std::string::npos) << why;
+  // A hind pair is in the CFD geometry (parts hind_right and hind_left; tests/apps/test_cfd_cli.cpp runs a
+  // four-winged case): the four-winged example passes the geometry check that flapstab cfd makes of every case, and
+  // loads with model = "cfd".
+  const std::string four = source + "/data/examples/four_wing_hawkmoth.toml";
+  EXPECT_NO_THROW(check_cfd_geometry(load_case(four).insect, four));
+  // But the example's two pairs are one wing pair twice, at the same hinge and in phase: two coincident membranes,
+  // which the immersed boundary does not model, so flapstab cfd refuses it at planning, naming the hind hinge.
+  expect_refused("cfd", four, "hind_wing.hinge_m");
+  const std::string four_cfd = testing::write_temp(
+      "four_wing_cfd.toml", edited("data/examples/four_wing_hawkmoth.toml", {{"model = \"quasi-steady\"", "model = \"cfd\""}}));
+  Case c;
+  ASSERT_NO_THROW(c = load_case(four_cfd));
+  EXPECT_EQ(c.aero.model, "cfd");
+  EXPECT_TRUE(c.insect.hind_wing.has_value());
 }
 
 TEST(Examples, TranslationOnlyModelTrimsAndHasThreeExponents) {

@@ -16,6 +16,7 @@
 #include "cfd/navier_stokes/geometry.hpp"
 #include "cfd/navier_stokes/mesh_query.hpp"
 #include "common/test_insect.hpp"
+#include "core/case_file.hpp"
 #include "core/rotation.hpp"
 
 namespace flapstab::ns {
@@ -253,6 +254,109 @@ TEST(NsGeometry, InsectPartsArePlacedByTheConfiguration) {
   }
   // insect_meshes is the same thing in one call.
   EXPECT_EQ(insect_meshes(config, t, res)[2].mesh.vertices, parts[2].mesh.vertices);
+}
+
+// The hind pair of a four-winged insect in the CFD geometry: parts 3 and 4 (hind_right, hind_left) are the hind wing's
+// own planform placed by the configuration's hind-pair pose, the pose the quasi-steady model and the mass properties
+// use, so the CFD's hind wings are where the rest of the program thinks they are. The shipped example
+// (data/examples/four_wing_hawkmoth.toml) has a hind pair identical to the fore pair, at the same hinge and in phase:
+// there a mix-up of the two pairs (the fore wing's mesh or pose for the hind wing) would go unseen, so the example is
+// also run with a hind pair of its own (rectangular, shorter, hinged 9 mm further back, a quarter wingbeat ahead).
+TEST(NsGeometry, HindPairIsPlacedByTheConfigurationsHindPose) {
+  const Case example = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/examples/four_wing_hawkmoth.toml");
+  ASSERT_TRUE(example.insect.hind_wing.has_value());
+  Insect distinct = example.insect;
+  distinct.hind_wing->planform = Planform::rectangular;
+  distinct.hind_wing->length *= 0.8;
+  distinct.hind_wing->hinge.x() -= 0.009;
+  Kinematics distinct_kin = example.kinematics;
+  distinct_kin.hind_phase = 0.25;
+  struct Variant {
+    const char* name;
+    const Insect* insect;
+    const Kinematics* kin;
+  };
+  const MeshResolution res{8, 16, 5};
+  for (const Variant& v : {Variant{"example", &example.insect, &example.kinematics},
+                           Variant{"distinct hind pair", &distinct, &distinct_kin}}) {
+    SCOPED_TRACE(v.name);
+    const Configuration config(*v.insect, *v.kin);
+    const InsectSurfaces surfaces(config, res);
+    ASSERT_EQ(surfaces.reference().size(), 5u);
+    // The hind wings' reference mesh is the hind planform in the wing frame.
+    const TriangleMesh hind = wing_mesh(*v.insect->hind_wing, res.wing_span, res.wing_chord);
+    for (std::size_t p : {3u, 4u}) {
+      EXPECT_EQ(surfaces.reference()[p].vertices, hind.vertices);
+      EXPECT_EQ(surfaces.reference()[p].triangles, hind.triangles);
+    }
+    for (double phase : {0.0, 0.17, 0.5, 0.81}) {
+      const double t = phase * v.kin->period();
+      const std::vector<MeshPart> parts = surfaces.at(t);
+      ASSERT_EQ(parts.size(), 5u);
+      EXPECT_EQ(parts[3].mesh.label, "hind_right");
+      EXPECT_EQ(parts[4].mesh.label, "hind_left");
+      double err = 0, verr = 0, scale = 0;
+      for (Side s : {Side::right, Side::left}) {
+        const WingPose pose = config.wing_pose(s, t, Pair::hind);
+        const MeshPart& part = parts[s == Side::right ? 3 : 4];
+        EXPECT_TRUE(part.mesh.membrane);
+        EXPECT_EQ(part.pose.mirrors(), s == Side::left);  // the left wing: the right mesh mirrored, det R = -1
+        ASSERT_EQ(part.mesh.vertices.size(), hind.vertices.size());
+        for (std::size_t i = 0; i < hind.vertices.size(); ++i) {
+          err = std::max(err, (part.mesh.vertices[i] - pose.position(hind.vertices[i])).norm());
+          verr = std::max(verr, (part.motion.at(part.mesh.vertices[i]) - pose.velocity(hind.vertices[i])).norm());
+          scale = std::max(scale, pose.velocity(hind.vertices[i]).norm());
+        }
+        // Front faces map with the pose's normal column (winding reversed for the mirrored wing).
+        for (std::size_t k = 0; k < part.mesh.size(); ++k)
+          ASSERT_NEAR((part.mesh.normal(k) - pose.axes.col(2)).norm(), 0.0, 1e-9);
+      }
+      // Round-off: positions of order 0.05 m, the same arithmetic (hinge + axes xi).
+      EXPECT_LT(err, 1e-15) << "t/T = " << phase;
+      EXPECT_LT(verr, 1e-12 * std::max(scale, 1.0)) << "t/T = " << phase;
+      // Symmetric hind kinematics: the left hind wing is the mirror image of the right one, vertex by vertex, so the
+      // flow solver is given a mirror-symmetric insect.
+      for (std::size_t i = 0; i < hind.vertices.size(); ++i)
+        ASSERT_NEAR((parts[4].mesh.vertices[i] - mirror_y() * parts[3].mesh.vertices[i]).norm(), 0.0, 1e-15);
+      // The hind wing is not the fore wing: in the distinct variant they differ by centimetres.
+      if (v.insect == &distinct)
+        EXPECT_GT((parts[3].mesh.vertices.back() - parts[1].mesh.vertices.back()).norm(), 1e-3);
+    }
+  }
+
+  // Without the hind pair the geometry is the three parts of a two-winged insect, bit for bit what they were
+  // before the hind pair was added (body ellipsoid and fore-wing mesh moved by the configuration's poses), and the
+  // four-winged geometry's first three parts are those same parts when O is the same point.
+  Insect two = distinct;
+  two.hind_wing.reset();
+  Kinematics two_kin = distinct_kin;
+  two_kin.has_hind = false;
+  const Configuration four_config(distinct, distinct_kin);
+  const Configuration two_config(two, two_kin), two_same_o(two, two_kin, four_config.reference_point());
+  const TriangleMesh body0 = ellipsoid_mesh(Vec3(two.body.length, two.body.width, two.body.height), res.body);
+  const TriangleMesh wing0 = wing_mesh(two.wing, res.wing_span, res.wing_chord);
+  for (double phase : {0.0, 0.17, 0.5, 0.81}) {
+    const double t = phase * two_kin.period();
+    const std::vector<MeshPart> three = InsectSurfaces(two_config, res).at(t);
+    ASSERT_EQ(three.size(), 3u);
+    const std::vector<TriangleMesh> before = {
+        body0.transformed(RigidTransform{two_config.anatomical_to_stability(), two_config.body_centre()}),
+        wing0.transformed(wing_transform(two_config.wing_pose(Side::right, t))),
+        wing0.transformed(wing_transform(two_config.wing_pose(Side::left, t)))};
+    for (std::size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(three[i].mesh.vertices, before[i].vertices) << "part " << i;
+      EXPECT_EQ(three[i].mesh.triangles, before[i].triangles) << "part " << i;
+    }
+    EXPECT_EQ(three[0].mesh.label, "body");
+    EXPECT_EQ(three[1].mesh.label, "right");
+    EXPECT_EQ(three[2].mesh.label, "left");
+    const std::vector<MeshPart> five = InsectSurfaces(four_config, res).at(t);
+    const std::vector<MeshPart> three_same_o = InsectSurfaces(two_same_o, res).at(t);
+    for (std::size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(five[i].mesh.vertices, three_same_o[i].mesh.vertices) << "part " << i;
+      EXPECT_EQ(five[i].mesh.label, three_same_o[i].mesh.label);
+    }
+  }
 }
 
 TEST(NsGeometry, WeldMergesATriangleSoup) {

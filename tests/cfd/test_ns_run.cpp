@@ -197,7 +197,31 @@ TEST(CfdRun, ForcesCsvHasOneHeaderRowWithUnitsInTheColumnNames) {
   EXPECT_EQ(forces_csv_row(back), forces_csv_row(r));
   EXPECT_EQ(back.step, 3);
   EXPECT_EQ(back.part[2].viscous_moment.z(), 1.0 / 3);
+  EXPECT_EQ(back.parts, 3);
   EXPECT_THROW(parse_forces_csv_row("1,2,3"), std::invalid_argument);
+
+  // A four-winged insect's rows: five parts (hind_right, hind_left after the fore pair), 13 columns more each; the
+  // parser tells the two apart by the column count, and the total holds the hind pair's loads.
+  const std::string h5 = forces_csv_header(5);
+  EXPECT_EQ(h5.rfind(cols, 0), std::string::npos);  // the totals follow the hind pair, not the left wing
+  EXPECT_EQ(h5.rfind(cols.substr(0, cols.find(",Fx_N")), 0), 0u);
+  for (const char* c : {"hind_right_Fx_p_N", "hind_right_P_W", "hind_left_Mz_v_N_m", "hind_left_P_W"})
+    EXPECT_NE(h5.find(std::string(",") + c), std::string::npos) << c;
+  EXPECT_EQ(std::count(h5.begin(), h5.end(), ','), std::count(cols.begin(), cols.end(), ',') + 2 * 13);
+  r.parts = 5;
+  r.part[4].pressure_force = Vec3(0, -2, 0);
+  const std::string row5 = forces_csv_row(r);
+  EXPECT_EQ(std::count(row5.begin(), row5.end(), ','), std::count(h5.begin(), h5.end(), ','));
+  EXPECT_EQ(r.total().force, Vec3(1, 0, 3));
+  const CfdLoadRow back5 = parse_forces_csv_row(row5.substr(0, row5.size() - 1));
+  EXPECT_EQ(back5.parts, 5);
+  EXPECT_EQ(back5.part[4].pressure_force, Vec3(0, -2, 0));
+  EXPECT_EQ(forces_csv_row(back5), row5);
+  // Four parts' worth of columns is no geometry's.
+  const std::string four_parts = row5.substr(0, row5.size() - 1);
+  std::string cut = four_parts;
+  for (int k = 0; k < 13; ++k) cut = cut.substr(0, cut.rfind(','));
+  EXPECT_THROW(parse_forces_csv_row(cut), std::invalid_argument);
 }
 
 // Body-free flow in the insect's box: checkpoints every 10 steps; an interrupted run restarted from its newest

@@ -119,6 +119,31 @@ INSTANTIATE_TEST_SUITE_P(
         BadCfd{"unknown", "cells_per_cord = 8", "aero.cfd.cells_per_cord"}),
     [](const ::testing::TestParamInfo<BadCfd>& i) { return std::string(i.param.label); });
 
+// The hind pair of a four-winged insect is in the CFD geometry (parts hind_right, hind_left): model = "cfd" takes it
+// (it was refused, key hind_wing, while the geometry held one pair), and force partitioning may name its wings. Naming
+// a hind wing for an insect without a hind pair is bad input naming the file and aero.cfd.fpm.parts, not a run that
+// fails later or partitions nothing.
+TEST(CaseFileCfd, HindPairIsInTheCfdGeometry) {
+  const std::string cfd = replace(valid_case_text(), "model = \"quasi-steady\"", "model = \"cfd\"");
+  std::string four = replace(cfd, "[kinematics]\n",
+                             "[hind_wing]\nlength_m = 0.040\nmean_chord_m = 0.012\nplanform = \"rectangular\"\n"
+                             "mass_kg = 20e-6\nhinge_m = [-0.014, 0.004, -0.003]\n\n[kinematics]\n");
+  four = replace(four, "[fluid]\n",
+                 "[kinematics.hind]\nphase_deg = 90.0\n[kinematics.hind.stroke]\ncos_deg = [-50.0]\n"
+                 "[kinematics.hind.pitch]\nmean_deg = 90.0\nsin_deg = [-50.0]\n\n[fluid]\n");
+  const std::string fpm = "[aero.cfd.fpm]\nparts = [\"right\", \"hind_right\", \"hind_left\"]\n";
+  const Case c = load_case(write_temp("cfd_four_wings.toml", replace(four, "[trim]\n", fpm + "\n[trim]\n")));
+  ASSERT_TRUE(c.insect.hind_wing.has_value());
+  EXPECT_EQ(c.aero.model, "cfd");
+  EXPECT_EQ(c.aero.cfd.fpm.parts, (std::vector<std::string>{"right", "hind_right", "hind_left"}));
+  EXPECT_NO_THROW(check_cfd_geometry(c.insect, c.path));
+
+  const std::string path = write_temp("cfd_fpm_no_hind.toml", replace(cfd, "[trim]\n", fpm + "\n[trim]\n"));
+  const std::string what = testing::expect_input_error([&] { load_case(path); }, "aero.cfd.fpm.parts", path);
+  EXPECT_NE(what.find("hind_right"), std::string::npos) << what;
+  EXPECT_NE(what.find("[hind_wing]"), std::string::npos) << what;
+}
+
 TEST(CaseFileCfd, TableMustBeATable) {
   const std::string path = write_temp("cfd_not_table.toml", replace(valid_case_text(), "model = \"quasi-steady\"",
                                                                      "model = \"cfd\"\ncfd = 3"));
