@@ -192,8 +192,11 @@ LevelSet build_level_set(const TriangleMesh& mesh, double spacing, double margin
 // One forced face (or flagged cell): key = component * size + padded index.
 struct Entry {
   std::int64_t key;
-  int part;
+  std::int32_t part;
   float phi;
+  // Another part at exactly the same level-set value (-1: none): a face on a plane of mirror symmetry between the
+  // two wings' bands, forced with the mean of both parts' values and its load shared (force()).
+  std::int32_t tie = -1;
 };
 
 }  // namespace
@@ -334,7 +337,7 @@ struct ImmersedBoundary::Impl {
               const double r = p.ls.at(b + cx[std::size_t(i)] * e);
               const double ph = r - thick * h;
               if (ph < h) {
-                mine.push_back({base + s(i, j, k), int(ip), float(ph)});
+                mine.push_back({base + s(i, j, k), std::int32_t(ip), float(ph)});
               } else if (r > T) {
                 const double stop = cx[std::size_t(i)] + (r - T) * inv_sqrt3;
                 while (i < i1 && cx[std::size_t(i) + 1] < stop) ++i;
@@ -345,10 +348,25 @@ struct ImmersedBoundary::Impl {
         out.insert(out.end(), mine.begin(), mine.end());
       }
     }
-    // Overlapping parts: a face solid in any part is solid (deepest part), band faces take the nearest part.
+    // Overlapping parts: a face solid in any part is solid (deepest part), band faces take the nearest part. Where
+    // two parts are equally near (the float values equal: a y-face on the mirror plane between a symmetric
+    // insect's wing bands), the face keeps the lower-numbered part and notes the other as its tie, so the choice
+    // does not depend on the order of the parts (force() uses both). Without it the first part's value was taken,
+    // and the mirror plane's normal velocity was not zero: the left and right wings' loads differed by percent
+    // on a coarse grid, and by another percent with the parts in the other order.
     if (parts.size() > 1) {
-      std::sort(out.begin(), out.end(), [](const Entry& a, const Entry& b) { return a.key < b.key || (a.key == b.key && a.phi < b.phi); });
-      out.erase(std::unique(out.begin(), out.end(), [](const Entry& a, const Entry& b) { return a.key == b.key; }), out.end());
+      std::sort(out.begin(), out.end(), [](const Entry& a, const Entry& b) {
+        return a.key < b.key || (a.key == b.key && (a.phi < b.phi || (a.phi == b.phi && a.part < b.part)));
+      });
+      std::size_t w = 0;
+      for (std::size_t r = 0; r < out.size(); ++r) {
+        if (w > 0 && out[w - 1].key == out[r].key) {
+          if (out[w - 1].tie < 0 && out[r].phi == out[w - 1].phi && out[r].part != out[w - 1].part) out[w - 1].tie = out[r].part;
+          continue;
+        }
+        out[w++] = out[r];
+      }
+      out.resize(w);
     }
   }
 
@@ -463,28 +481,19 @@ struct ImmersedBoundary::Impl {
     values.resize(entries.size());
     const Shape s = grid.shape();
     std::size_t solid = 0;
-    // Jacobi: every new value from the predicted field before any forcing of this stage.
-#pragma omp parallel for schedule(static) reduction(+ : solid) if (entries.size() >= 4096)
-    for (std::size_t m = 0; m < entries.size(); ++m) {
-      const Entry& e = entries[m];
+    // The forced value of entry e's face as part `ip` sees it (a tied face asks both of its parts).
+    const auto forced_value = [&](const Entry& e, std::size_t ip) -> double {
       int d, i, j, k;
       decode(e.key, d, i, j, k);
       const auto xp = grid.point(d, i, j, k);
       const Vec3 x(xp[0], xp[1], xp[2]);
-      const PartState& st = states[std::size_t(e.part)];
-      if (e.phi < 0) {
-        values[m] = st.velocity.at(x)[d];
-        ++solid;
-        continue;
-      }
-      const Part& p = parts[std::size_t(e.part)];
+      const PartState& st = states[ip];
+      if (e.phi < 0) return st.velocity.at(x)[d];
+      const Part& p = parts[ip];
       const double h = face_width(d, i, j, k);
       Vec3 n = st.pose.rotation * p.ls.gradient(st.pose.apply_inverse(x));
       const double norm = n.norm();
-      if (!(norm > 1e-6)) {  // no direction (medial point): treat as solid
-        values[m] = st.velocity.at(x)[d];
-        continue;
-      }
+      if (!(norm > 1e-6)) return st.velocity.at(x)[d];  // no direction (medial point): treat as solid
       n /= norm;
       const double ph = e.phi;
       const double vs = st.velocity.at(x - ph * n)[d];
@@ -496,7 +505,7 @@ struct ImmersedBoundary::Impl {
       const double p1 = ph + d1, p2 = ph + d2;  // probe distances from the surface
       const double l0 = (ph - p1) * (ph - p2) / (p1 * p2), l1 = ph * (ph - p2) / (p1 * (p1 - p2)),
                    l2 = ph * (ph - p1) / (p2 * (p2 - p1));
-      values[m] = l0 * vs + l1 * u1 + l2 * u2;
+      double value = l0 * vs + l1 * u1 + l2 * u2;
       // Where a probe reaches into another part's band (a wing root sweeping past the body), the probes of the two
       // parts' bands sample each other's forced faces, so whatever one forcing sets is read back by the other,
       // stage after stage through this Jacobi update; the quadratic can also overshoot the values it interpolates.
@@ -504,16 +513,24 @@ struct ImmersedBoundary::Impl {
       // 1.73 within 13 steps); bounded by the three values, later in other runs (docs/validation.md). The gap
       // treatment reads no fluid value there: the face takes the linear profile between the two surfaces.
       if (opt.contact != ImmersedOptions::Contact::quadratic && parts.size() > 1 &&
-          (near_other_part(states, std::size_t(e.part), x + d1 * n, h) ||
-           near_other_part(states, std::size_t(e.part), x + d2 * n, h))) {
+          (near_other_part(states, ip, x + d1 * n, h) || near_other_part(states, ip, x + d2 * n, h))) {
         double phq = 0, vq = 0;
-        if (opt.contact == ImmersedOptions::Contact::gap && nearest_other_surface(states, std::size_t(e.part), x, h, d, phq, vq)) {
+        if (opt.contact == ImmersedOptions::Contact::gap && nearest_other_surface(states, ip, x, h, d, phq, vq)) {
           phq = std::max(phq, 0.0);
-          values[m] = ph + phq > 0 ? (phq * vs + ph * vq) / (ph + phq) : 0.5 * (vs + vq);
+          value = ph + phq > 0 ? (phq * vs + ph * vq) / (ph + phq) : 0.5 * (vs + vq);
         } else {
-          values[m] = std::clamp(values[m], std::min({vs, u1, u2}), std::max({vs, u1, u2}));
+          value = std::clamp(value, std::min({vs, u1, u2}), std::max({vs, u1, u2}));
         }
       }
+      return value;
+    };
+    // Jacobi: every new value from the predicted field before any forcing of this stage.
+#pragma omp parallel for schedule(static) reduction(+ : solid) if (entries.size() >= 4096)
+    for (std::size_t m = 0; m < entries.size(); ++m) {
+      const Entry& e = entries[m];
+      values[m] = e.tie < 0 ? forced_value(e, std::size_t(e.part))
+                            : 0.5 * (forced_value(e, std::size_t(e.part)) + forced_value(e, std::size_t(e.tie)));
+      if (e.phi < 0) ++solid;
     }
     // Momentum exchange (Uhlmann 2005): the forcing adds rho (u_forced - u*) dV per stage of length alpha dt to
     // the fluid; the fictitious fluid inside a part (solid faces) is accelerated with the part, which takes
@@ -532,18 +549,23 @@ struct ImmersedBoundary::Impl {
       double vol = 1;
       const int I[3] = {i, j, k};
       for (int a = 0; a < 3; ++a) vol *= a == d ? grid.axis[std::size_t(a)].dv[std::size_t(I[a])] : grid.axis[std::size_t(a)].dc[std::size_t(I[a])];
-      const std::size_t ip = std::size_t(entries[m].part);
       const auto xp = grid.point(d, i, j, k);
       const Vec3 x(xp[0], xp[1], xp[2]);
-      const PartState& st = states[ip];
-      double f = -opt.density * (values[m] - u) * vol / adt;  // d-component of the force on the part (N)
-      if (entries[m].phi < 0) f += opt.density * vol * st.acceleration_at(x)[d];
-      Vec3 F = Vec3::Zero();
-      F[d] = f;
-      Exchange& e = mine[ip];
-      e.force += F;
-      e.moment += x.cross(F);
-      e.power -= F.dot(st.velocity.at(x));
+      // A tied face's load goes half to each of its two parts.
+      const bool tied = entries[m].tie >= 0;
+      for (int share = 0; share < (tied ? 2 : 1); ++share) {
+        const std::size_t ip = std::size_t(share == 0 ? entries[m].part : entries[m].tie);
+        const double weight = tied ? 0.5 : 1.0;
+        const PartState& st = states[ip];
+        double f = -weight * opt.density * (values[m] - u) * vol / adt;  // d-component of the force on the part (N)
+        if (entries[m].phi < 0) f += weight * opt.density * vol * st.acceleration_at(x)[d];
+        Vec3 F = Vec3::Zero();
+        F[d] = f;
+        Exchange& e = mine[ip];
+        e.force += F;
+        e.moment += x.cross(F);
+        e.power -= F.dot(st.velocity.at(x));
+      }
       u = values[m];
       // A periodic axis: face n+1 is face 1's image (the divergence of cell n reads it).
       const Axis& ax = grid.axis[std::size_t(d)];
