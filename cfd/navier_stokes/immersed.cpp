@@ -192,11 +192,11 @@ LevelSet build_level_set(const TriangleMesh& mesh, double spacing, double margin
 // One forced face (or flagged cell): key = component * size + padded index.
 struct Entry {
   std::int64_t key;
-  std::int32_t part;
   float phi;
+  std::int16_t part;  // add_part keeps the part count below 2^15; 16 bytes per entry in all
   // Another part at exactly the same level-set value (-1: none): a face on a plane of mirror symmetry between the
   // two wings' bands, forced with the mean of both parts' values and its load shared (force()).
-  std::int32_t tie = -1;
+  std::int16_t tie = -1;
 };
 
 }  // namespace
@@ -337,7 +337,7 @@ struct ImmersedBoundary::Impl {
               const double r = p.ls.at(b + cx[std::size_t(i)] * e);
               const double ph = r - thick * h;
               if (ph < h) {
-                mine.push_back({base + s(i, j, k), std::int32_t(ip), float(ph)});
+                mine.push_back({base + s(i, j, k), float(ph), std::int16_t(ip)});
               } else if (r > T) {
                 const double stop = cx[std::size_t(i)] + (r - T) * inv_sqrt3;
                 while (i < i1 && cx[std::size_t(i) + 1] < stop) ++i;
@@ -771,6 +771,7 @@ int ImmersedBoundary::add_part(TriangleMesh reference, const PartState& s0) {
     p.normal[t] = av / p.area[t];
   }
   p.mesh = std::move(reference);
+  if (m.parts.size() >= std::size_t(INT16_MAX)) throw std::invalid_argument("immersed boundary: too many parts");
   m.parts.push_back(std::move(p));
   return int(m.parts.size()) - 1;
 }
