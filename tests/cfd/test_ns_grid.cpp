@@ -60,6 +60,26 @@ TEST(NavierStokesGrid, StretchedAxisKeepsSpacingRatioAndBounds) {
   EXPECT_NEAR(double(fine.n) / coarse.n, 2.0, 0.15);
 }
 
+// A box and margins symmetric about 0 (the lateral axis of a symmetric insect, y = 0 its plane of symmetry) give
+// faces symmetric about 0: x_f(i) = -x_f(n - i) to rounding (1e-12 of the length), so mirror-image faces have the
+// same widths and the flow of a symmetric insect can stay symmetric. Several spacings, ratios and margins.
+TEST(NavierStokesGrid, SymmetricSpecificationGivesASymmetricAxis) {
+  int checked = 0;
+  for (double h : {0.05, 0.047, 0.031, 0.0123})
+    for (double ratio : {1.0, 1.03, 1.05, 1.08})
+      for (double margin : {0.0, 0.7, 2.9}) {
+        if (ratio == 1.0 && margin > 0) continue;  // unstretched margins need not fit whole cells
+        const StretchedAxis spec{-1.3 - margin, 1.3 + margin, -1.3, 1.3, h, ratio, 8};
+        const Axis a = Axis::stretched(spec, false);
+        ASSERT_EQ(a.n % 8, 0);
+        for (int i = 0; i <= a.n; ++i)
+          EXPECT_NEAR(a.xf[std::size_t(i + 1)], -a.xf[std::size_t(a.n - i + 1)], 1e-12 * (2.6 + 2 * margin))
+              << "h " << h << " ratio " << ratio << " margin " << margin << " face " << i << " of " << a.n;
+        ++checked;
+      }
+  EXPECT_EQ(checked, 40);
+}
+
 TEST(NavierStokesGrid, StretchedAxisWithoutStretchingIsUniform) {
   const Axis a = Axis::stretched(StretchedAxis{0, 1, 0, 1, 0.1, 1.05, 1}, false);
   EXPECT_EQ(a.n, 10);
