@@ -418,24 +418,24 @@ struct ImmersedBoundary::Impl {
   // lattice gives a direction there.
   bool nearest_other_surface(const std::vector<PartState>& states, std::size_t self, const Vec3& x, double h, int d,
                              double& phi_out, double& velocity_out) const {
-    double best = std::numeric_limits<double>::infinity();
-    std::vector<std::pair<double, double>> near;  // (distance, velocity component) of each candidate part
+    // Running mean over the parts within the tie window of the nearest so far (no allocation: called per contact face).
+    double best = std::numeric_limits<double>::infinity(), sum = 0;
+    int count = 0;
+    const double window = 1e-9 * h;
     for (std::size_t k = 0; k < parts.size(); ++k) {
       if (k == self) continue;
       const Part& q = parts[k];
       const Vec3 y = states[k].pose.apply_inverse(x);
       const double v = q.ls.at(y) - (q.mesh.membrane ? opt.membrane_half_thickness * h : 0.0);
-      if (v > best + 1e-9 * h) continue;
+      if (v > best + window) continue;
       const Vec3 g = states[k].pose.rotation * q.ls.gradient(y);
       if (!(g.norm() > 1e-6)) continue;
+      const double u = states[k].velocity.at(x - v * g.normalized())[d];
+      if (v < best - window) sum = u, count = 1;  // a clearly nearer part starts the mean again
+      else sum += u, ++count;
       best = std::min(best, v);
-      near.emplace_back(v, states[k].velocity.at(x - v * g.normalized())[d]);
     }
-    if (near.empty()) return false;
-    double sum = 0;
-    int count = 0;
-    for (const auto& [v, u] : near)
-      if (v <= best + 1e-9 * h) sum += u, ++count;
+    if (count == 0) return false;
     phi_out = best;
     velocity_out = sum / count;
     return true;

@@ -195,13 +195,6 @@ TEST(CfdCli, RunThenRestartForMoreCycles) {
   EXPECT_EQ(nlohmann::json::parse(again), j);
 }
 
-// A four-winged insect: the hind pair ([hind_wing], [kinematics.hind]) is in the CFD geometry as two more parts,
-// hind_right and hind_left. Its wing is its own (rectangular, 40 mm by 12 mm), hinged 20 mm behind the fore wing and
-// flapping the fore pair's gentle wingbeat in phase, so the two pairs stay about 15 mm apart. One wingbeat on the
-// tiny grid: forces.csv, run.json and the surfaces carry all five parts; the five parts' mean loads sum to the total
-// (the hind pair's loads are in it), and, the kinematics and geometry being symmetric, the hind wings' mean side
-// forces mirror each other, the fore pair's and the hind pair's (2 %, as RunThenRestartForMoreCycles; measured
-// 0.105 % and 0.023 %, 3.6 % and 0.068 % before a face on the mirror plane took both wings' values).
 // The gentle wingbeat of RunThenRestartForMoreCycles with a hind pair of its own (rectangular, 40 mm by 12 mm) hinged
 // at `hinge` (m, A axes) and flapping the same angles `phase_deg` ahead.
 std::string four_winged(const std::string& keys, const std::string& hinge, const std::string& phase_deg) {
@@ -216,6 +209,13 @@ std::string four_winged(const std::string& keys, const std::string& hinge, const
                  "sin_deg = [-10.0]\n\n[fluid]\n");
 }
 
+// A four-winged insect: the hind pair ([hind_wing], [kinematics.hind]) is in the CFD geometry as two more parts,
+// hind_right and hind_left. Its wing is its own (rectangular, 40 mm by 12 mm), hinged 20 mm behind the fore wing and
+// flapping the fore pair's gentle wingbeat in phase, so the two pairs stay about 15 mm apart. One wingbeat on the
+// tiny grid: forces.csv, run.json and the surfaces carry all five parts; the five parts' mean loads sum to the total
+// (the hind pair's loads are in it), and, the kinematics and geometry being symmetric, the left and right wings'
+// mean side forces mirror each other, the fore pair's and the hind pair's (2 %, as RunThenRestartForMoreCycles; measured
+// 0.105 % and 0.023 %, 3.6 % and 0.068 % before a face on the mirror plane took both wings' values).
 TEST(CfdCli, FourWingedInsectRunsWithFiveParts) {
   // With force partitioning of the four wings (their parts and regions named after them).
   const std::string text = four_winged("steps_per_cycle = 60\nreynolds = 20\nfields_per_cycle = 0\n"

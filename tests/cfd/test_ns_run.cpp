@@ -837,7 +837,7 @@ TEST(CfdSimulation, RestoredStateContinuesBitForBit) {
 // loads of this tiny moth differ by up to 0.25 % of the largest force (the wing roots against the body).
 // The reference was written again when the level-set lattices were centred on each part's box (a symmetric body
 // then has a symmetric level set) and faces on the mirror plane between the wings' bands took both wings' values:
-// these change the loads of these impulsive first steps by up to 2.1 % of the largest force; since then the file
+// together these change the loads of these impulsive first steps by up to 4.4 % of the largest force; since then the file
 // guards the loads against unintended change.
 TEST(CfdSimulation, LoadsMatchTheDriverBeforeTheSplit) {
   const Case c = cfd_case("moth_restart.toml", tiny_moth_keys);

@@ -31,6 +31,19 @@ BodyStateVector moving_state() {
   return x;
 }
 
+// Two configurations that must be the same mechanical system: the equations of motion agree at a moving state under
+// a general wrench, at three instants of the wingbeat, to round-off (1e-12 relative).
+void expect_same_equations_of_motion(const Configuration& a, const Configuration& b) {
+  const BodyStateVector x = moving_state();
+  Wrench w;
+  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
+  w.moment = Vec3(1e-5, -3e-5, 2e-6);
+  for (double t : {0.0, 0.011, 0.027}) {
+    const BodyStateVector da = body_state_derivative(a, t, x, w), db = body_state_derivative(b, t, x, w);
+    EXPECT_LT((da - db).norm(), 1e-12 * db.norm()) << t;
+  }
+}
+
 // Two wingbeats from moving_state() without gravity or loads (RK4, 4000 steps per cycle): the change of the system's
 // linear and angular momentum (inertial axes) and the end state.
 struct MomentumChange {
@@ -156,14 +169,7 @@ TEST(Eom, IdenticalInPhaseHindPairDoublesTheWingMass) {
   k4.hind_left = k4.left;
   const Configuration c4(four, k4), c2(two, k2);
   EXPECT_LT((c4.reference_point() - c2.reference_point()).norm(), 1e-15);
-  const BodyStateVector x = moving_state();
-  Wrench w;
-  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
-  w.moment = Vec3(1e-5, -3e-5, 2e-6);
-  for (double t : {0.0, 0.011, 0.027}) {
-    const BodyStateVector d4 = body_state_derivative(c4, t, x, w), d2 = body_state_derivative(c2, t, x, w);
-    EXPECT_LT((d4 - d2).norm(), 1e-12 * d2.norm()) << t;
-  }
+  expect_same_equations_of_motion(c4, c2);
 }
 
 }  // namespace
@@ -225,14 +231,7 @@ TEST(Eom, AbdomenFlexionShiftsTheRelativePitch) {
   const Configuration plain(ins, k), moved(shifted, k), flexed(ins, kf);
   EXPECT_LT((flexed.reference_point() - moved.reference_point()).norm(), 1e-15);
   EXPECT_GT((flexed.reference_point() - plain.reference_point()).norm(), 1e-5);
-  const BodyStateVector x = moving_state();
-  Wrench w;
-  w.force = Vec3(1e-3, 2e-4, -1.5e-2);
-  w.moment = Vec3(1e-5, -3e-5, 2e-6);
-  for (double t : {0.0, 0.011, 0.027}) {
-    const BodyStateVector a = body_state_derivative(flexed, t, x, w), b = body_state_derivative(moved, t, x, w);
-    EXPECT_LT((a - b).norm(), 1e-12 * b.norm()) << t;
-  }
+  expect_same_equations_of_motion(flexed, moved);
   // A rigid abdomen flexed by 7 deg: its CoM turns about the joint, p = joint + R_y(7 deg) centre (A axes), so the
   // insect's CoM in A moves by m_a (p - p0) / m. R_y by hand: positive turns x towards -z (tip ventral for x < 0).
   Insect rigid = ins;
