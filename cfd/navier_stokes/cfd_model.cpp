@@ -325,7 +325,15 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     Case c = case_;
     c.insect = insect;
     if (!base_kin) {  // other kinematics must stay within the fine box planned for the base hover
-      const CfdPlan q = plan_cfd(c, kin, BodyMotion{});
+      const CfdPlan q = [&] {
+        try {
+          return plan_cfd(c, kin, BodyMotion{});
+        } catch (const InputError& e) {  // say which run: the case's own kinematics are fine
+          throw InputError(case_.path, e.key(),
+                           fmt::format("the kinematics of CFD run '{}' (asked of the CFD model by the analysis): {}",
+                                       label, e.what()));
+        }
+      }();
       const double out = std::max((q.swept_hi - st.plan.fine_hi).maxCoeff(), (st.plan.fine_lo - q.swept_lo).maxCoeff());
       if (out > 0)
         throw InputError(case_.path, "aero.cfd.fine_margin_R",

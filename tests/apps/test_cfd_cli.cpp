@@ -39,7 +39,7 @@ CfdRunOutput flapstab_cfd(const std::string& args) {
 }
 
 std::string with_cfd(const std::string& keys) {
-  return replace(replace(valid_case_text(), "model = \"quasi-steady\"", "model = \"cfd\""), "[trim]\n",
+  return replace(replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"cfd\""), "[trim]\n",
                  "[aero.cfd]\n" + keys + "\n[trim]\n");
 }
 

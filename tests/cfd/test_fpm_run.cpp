@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 // grid (4 cells per mean chord, a fine box 0.4 R around the swept volume, 60 steps per wingbeat, coarse meshes), and
 // the given [aero.cfd.fpm] keys.
 std::string fpm_case_text(const std::string& fpm_keys, const std::string& model = "cfd") {
-  std::string t = testing::replace(testing::valid_case_text(), "model = \"quasi-steady\"", "model = \"" + model + "\"");
+  std::string t = testing::replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"" + model + "\"");
   t = testing::replace(testing::replace(t, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
                        "sin_deg = [-10.0]");
   const std::string cfd =

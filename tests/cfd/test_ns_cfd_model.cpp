@@ -23,7 +23,7 @@ Case model_case(const std::string& name, const std::string& extra) {
       "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
       "below_R = 0.5\nsteps_per_cycle = 60\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\n"
       "threads = 1\nreynolds = 20\n" + extra;
-  std::string text = testing::replace(testing::valid_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
+  std::string text = testing::replace(testing::valid_cfd_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
   text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
                           "sin_deg = [-10.0]");
   return load_case(testing::write_temp(name, text));
@@ -90,6 +90,22 @@ TEST(CfdModel, PerturbedRunsStartFromTheKeptHoverState) {
   std::size_t longest = 0;
   for (const auto& r : model.records()) if (r.label != "hover") longest = std::max(longest, r.cycles.size());
   EXPECT_EQ(model.reference_cycles().size(), longest);
+}
+
+// Kinematics asked of the CFD model by an analysis (a trim iterate, a control derivative's run) are checked like
+// the case's own: a stroke swept 30 deg back with the wing pitched +-55 deg makes the narrow-based wings cut through
+// each other behind the body, and the error names the run and the key.
+TEST(CfdModel, OtherKinematicsWhoseWingsMeetAreAnInputErrorNamingTheRun) {
+  const Case c = model_case("model_meet.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
+  std::string text = testing::replace(testing::valid_cfd_case_text(), "[kinematics.stroke]\nmean_deg = 0.0",
+                                      "[kinematics.stroke]\nmean_deg = -30.0");
+  const Case far_back = load_case(testing::write_temp("model_meet_kin.toml", text));
+  const CfdModel model(c, nullptr);
+  model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});  // the base hover (the case's kinematics)
+  const std::string what = testing::expect_input_error(
+      [&] { model.run(c.insect, far_back.kinematics, BodyMotion{}, AeroRunOptions{}); }, "wing");
+  EXPECT_NE(what.find("the kinematics of CFD run '"), std::string::npos) << what;
+  EXPECT_NE(what.find("the left wing meets the right wing"), std::string::npos) << what;
 }
 
 // With a cache directory, a second model on the same case reuses the hover state and every finished run: the same
