@@ -32,6 +32,7 @@
 // and while the leading-edge vortex stays attached; Dickinson's fits are from mid-stroke of a sweep of,
 // as recalled and not confirmed, 180 degrees: 3-4 chords of travel at r2).
 #include <gtest/gtest.h>
+#include <cstdlib>
 #include <Eigen/Dense>
 #include <chrono>
 #include <cmath>
@@ -65,12 +66,19 @@ struct RevolvingResult {
   double seconds;
 };
 
+// The domain and the averaging window (the defaults are the recorded cases'): walls at +-box R across, +-0.833 box
+// R vertically; the window's revolution angles in degrees.
+struct RevolvingSetup {
+  double box = 3, phi_lo = 60, phi_hi = 120;
+  double aspect_ratio = 3.74;  // R / c_bar of the elliptic planform
+};
+
 // alpha (degrees), h = c_bar / cells_per_chord in the fine box, stretching ratio.
 RevolvingResult run_revolving(double alpha_deg, double cells_per_chord, double ratio, double re = 136,
-                              RoboflyPlanform planform = RoboflyPlanform::ellipse) {
+                              RoboflyPlanform planform = RoboflyPlanform::ellipse, RevolvingSetup setup = {}) {
   const auto t0 = std::chrono::steady_clock::now();
   const bool ellipse = planform == RoboflyPlanform::ellipse;
-  const TriangleMesh mesh = ellipse ? wing_mesh(flapstab::robofly::elliptic_wing(3.74), 40, 10)
+  const TriangleMesh mesh = ellipse ? wing_mesh(flapstab::robofly::elliptic_wing(setup.aspect_ratio), 40, 10)
                                     : flapstab::robofly::dickinson_wing_mesh(40, 10);
   const double S = mesh.area(), cbar = S / 1.0;  // R = 1 (hinge to tip)
   // r2 of the meshed planform about the hinge: (int r^2 dA / S)^(1/2), triangle-wise.
@@ -99,9 +107,10 @@ RevolvingResult run_revolving(double alpha_deg, double cells_per_chord, double r
   };
 
   const double h = cbar / cells_per_chord;
-  const Grid g(Axis::stretched(StretchedAxis{-3, 3, -1.05, 1.05, h, ratio, 8}, false),
-               Axis::stretched(StretchedAxis{-3, 3, -1.05, 1.05, h, ratio, 8}, false),
-               Axis::stretched(StretchedAxis{-2.5, 2.5, -zhalf - 2 * h, zhalf + 2 * h, h, ratio, 8}, false));
+  const double W = setup.box, Wz = 2.5 / 3 * setup.box;
+  const Grid g(Axis::stretched(StretchedAxis{-W, W, -1.05, 1.05, h, ratio, 8}, false),
+               Axis::stretched(StretchedAxis{-W, W, -1.05, 1.05, h, ratio, 8}, false),
+               Axis::stretched(StretchedAxis{-Wz, Wz, -zhalf - 2 * h, zhalf + 2 * h, h, ratio, 8}, false));
   rf::SingleWingFlow flow(g, nu, mesh, motion);
   Solver& s = flow.solver;
   ImmersedBoundary& ib = flow.ib;
@@ -111,7 +120,7 @@ RevolvingResult run_revolving(double alpha_deg, double cells_per_chord, double r
   r.nx = sh.nx, r.ny = sh.ny, r.nz = sh.nz, r.r2 = r2, r.area = S;
   r.planform = ellipse ? "ellipse AR 3.74" : "Dickinson drawing (FLUSI robofly_dickinson)";
   const double q = 0.5 * U * U * S;  // rho = 1
-  const double phi_lo = 60 * deg, phi_hi = 120 * deg;
+  const double phi_lo = setup.phi_lo * deg, phi_hi = setup.phi_hi * deg;
   double sl = 0, sd = 0, sq = 0, sls = 0, sds = 0, wsum = 0;
   double next_print = 15 * deg;
   std::vector<double> hist;
@@ -187,6 +196,23 @@ TEST(ImmersedConverged, DISABLED_RevolvingWingRoboflyDickinsonPlanformAlpha45) {
   print(45, r);
   EXPECT_NEAR(r.cl / robofly_cl(45), 1.0, 0.10);
   EXPECT_NEAR(r.cd / robofly_cd(45), 1.0, 0.10);
+}
+
+// Any case of the study, for the lift-gap candidates (docs/validation.md, "Revolving wing"): environment
+// RW_ALPHA (deg, 45), RW_CPC (cells per mean chord, 12), RW_RE (136), RW_BOX (wall half-width in R, 3), RW_LO and
+// RW_HI (the window, deg, 60 and 120), RW_AR (the ellipse's R / c_bar, 3.74).
+double env_or(const char* name, double fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atof(v) : fallback;
+}
+TEST(ImmersedStudy, DISABLED_RevolvingWingProbe) {
+  const double alpha = env_or("RW_ALPHA", 45);
+  const RevolvingSetup setup{env_or("RW_BOX", 3), env_or("RW_LO", 60), env_or("RW_HI", 120), env_or("RW_AR", 3.74)};
+  const RevolvingResult r = run_revolving(alpha, env_or("RW_CPC", 12), 1.1, env_or("RW_RE", 136),
+                                          RoboflyPlanform::ellipse, setup);
+  std::printf("  box +-%.1f R, window %.0f-%.0f deg, Re %.0f, aspect ratio %.2f:\n", setup.box, setup.phi_lo,
+              setup.phi_hi, env_or("RW_RE", 136), setup.aspect_ratio);
+  print(alpha, r);
 }
 
 }  // namespace
