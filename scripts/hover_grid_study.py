@@ -12,6 +12,7 @@ with `flapstab cfd` (an interrupted study is resumed: a grid whose run.json says
 one with checkpoints is restarted). Then it prints, per grid, the mean lift (-F_z), F_x, pitch moment M_y about
 O and wing power over each wingbeat (from forces.csv), and for the last wingbeat of the three finest grids
 the observed order, the extrapolated value and the GCI of the finest grid. Exit status 2 for bad arguments.
+`--self-test` checks the extrapolation on values of a known order (the test suite runs it).
 """
 import argparse
 import csv
@@ -74,7 +75,23 @@ def gci(n, f):
     return p, ext, 1.25 * abs((f[0] - f[1]) / f[0]) / (r21 ** p - 1), s > 0
 
 
+def self_test():
+    """The extrapolation of values f = 14 - 30 h^2 and f = 14 - 3 h^1.2 (h = 1 / cells per chord) on the study's
+    grids (16.15, 12.0, 8.2 cells per chord: unequal ratios) recovers the order and the limit to 1e-9."""
+    n = [16.15, 12.0, 8.2]
+    for p_true, c in ((2.0, -30.0), (1.2, -3.0)):
+        f = [14 + c * (1 / k) ** p_true for k in n]
+        p, ext, index, monotone = gci(n, f)
+        if not (abs(p - p_true) < 1e-9 and abs(ext - 14) < 1e-9 and monotone and index > 0):
+            print(f"hover_grid_study: self-test failed: order {p} (exact {p_true}), limit {ext} (exact 14)")
+            return 1
+    print("hover_grid_study: self-test passed (orders 2 and 1.2 and the limit recovered)")
+    return 0
+
+
 def main():
+    if sys.argv[1:] == ["--self-test"]:
+        return self_test()
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case")
     ap.add_argument("out")
