@@ -319,8 +319,9 @@ TEST(NsGeometry, HindPairIsPlacedByTheConfigurationsHindPose) {
       for (std::size_t i = 0; i < hind.vertices.size(); ++i)
         ASSERT_NEAR((parts[4].mesh.vertices[i] - mirror_y() * parts[3].mesh.vertices[i]).norm(), 0.0, 1e-15);
       // The hind wing is not the fore wing: in the distinct variant they differ by centimetres.
-      if (v.insect == &distinct)
+      if (v.insect == &distinct) {
         EXPECT_GT((parts[3].mesh.vertices.back() - parts[1].mesh.vertices.back()).norm(), 1e-3);
+      }
     }
   }
 
