@@ -28,7 +28,8 @@ def set_key(text, key, value):
     """Replaces `key = ...` in the [aero.cfd] table (the line must exist there)."""
     start = text.find("[aero.cfd]")
     if start < 0:
-        sys.exit(f"hover_grid_study: the case has no [aero.cfd] table")
+        print("hover_grid_study: the case has no [aero.cfd] table (expected a CFD case)", file=sys.stderr)
+        sys.exit(2)
     end = text.find("\n[", start + 1)
     end = len(text) if end < 0 else end
     table = text[start:end]
@@ -108,8 +109,11 @@ def main():
     if not os.path.isfile(a.case):
         print(f"hover_grid_study: no case file {a.case}", file=sys.stderr)
         return 2
-    os.makedirs(a.out, exist_ok=True)
     base = open(a.case).read()
+    if "[aero.cfd]" not in base:
+        print(f"hover_grid_study: {a.case} has no [aero.cfd] table (expected a CFD case)", file=sys.stderr)
+        return 2
+    os.makedirs(a.out, exist_ok=True)
     env = dict(os.environ)
     if a.threads > 0:
         env["OMP_NUM_THREADS"] = str(a.threads)

@@ -329,9 +329,13 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         try {
           return plan_cfd(c, kin, BodyMotion{});
         } catch (const InputError& e) {  // say which run: the case's own kinematics are fine
+          // The problem without the file and key the rethrown error names again.
+          std::string problem = e.what();
+          const std::string prefix = (e.file().empty() ? std::string("input") : e.file()) + ": key '" + e.key() + "': ";
+          if (problem.rfind(prefix, 0) == 0) problem.erase(0, prefix.size());
           throw InputError(case_.path, e.key(),
                            fmt::format("the kinematics of CFD run '{}' (asked of the CFD model by the analysis): {}",
-                                       label, e.what()));
+                                       label, problem));
         }
       }();
       const double out = std::max((q.swept_hi - st.plan.fine_hi).maxCoeff(), (st.plan.fine_lo - q.swept_lo).maxCoeff());

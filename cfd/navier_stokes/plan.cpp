@@ -194,12 +194,11 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
           double y_min = std::numeric_limits<double>::infinity();
           for (const Vec3& v : ref[right].vertices) y_min = std::min(y_min, parts[right].pose.apply(v).y());
           throw InputError(file, "wing",
-                           fmt::format("the {} meets the {} {} (the right wing reaches y = {:.3g} mm, its hinge is at "
-                                       "y = {:.3g} mm): the two wings cut through each other behind or in front of the "
-                                       "body, which the CFD geometry does not model (the fluid caught in the overlap "
-                                       "is forced both ways and the run blows up on fine grids)",
-                                       wing_name(b), wing_name(a), when, 1e3 * y_min,
-                                       1e3 * c.insect.wing.hinge.y()),
+                           fmt::format("the {} meets the {} {} (the {} reaches y = {:.3g} mm, past the plane of "
+                                       "symmetry y = 0): the two wings cut through each other behind or in front of "
+                                       "the body, which the CFD geometry does not model (the fluid caught in the "
+                                       "overlap is forced both ways and the run blows up on fine grids)",
+                                       wing_name(b), wing_name(a), when, wing_name(right), 1e3 * y_min),
                            "wings that stay on their own side of the plane of symmetry: a narrower root chord "
                            "(wing.planform), a hinge further from the mid-plane (wing.hinge_m) or a stroke that does "
                            "not sweep the root chord across it (kinematics.stroke)");

@@ -106,6 +106,7 @@ TEST(CfdModel, OtherKinematicsWhoseWingsMeetAreAnInputErrorNamingTheRun) {
       [&] { model.run(c.insect, far_back.kinematics, BodyMotion{}, AeroRunOptions{}); }, "wing");
   EXPECT_NE(what.find("the kinematics of CFD run '"), std::string::npos) << what;
   EXPECT_NE(what.find("the left wing meets the right wing"), std::string::npos) << what;
+  EXPECT_EQ(what.find("key 'wing'"), what.rfind("key 'wing'")) << "file and key named once: " << what;
 }
 
 // With a cache directory, a second model on the same case reuses the hover state and every finished run: the same
