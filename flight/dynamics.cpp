@@ -100,8 +100,27 @@ FlightDerivative FlightDynamics::derivative(double t, const BodyStateVector& x,
     cfg_actuated.emplace(insect_, *kin, config_->reference_point());
   }
   const Configuration& cfg = actuated ? *cfg_actuated : *config_;
+  double power = 0;
+  const Wrench aero = loads(cfg, actuated ? *kin : trimmed_, t, x, power);
+  return equations(cfg, t, x, aero, power);
+}
+
+FlightDerivative FlightDynamics::derivative(double t, const BodyStateVector& x, const std::vector<double>& command,
+                                            const Wrench& aero, double power) const {
+  ++evaluations_;
+  bool actuated = false;
+  for (double c : command) actuated = actuated || c != 0;
+  if (!actuated) return equations(*config_, t, x, aero, power);
+  const Kinematics kin = kinematics(command);
+  const Configuration cfg(insect_, kin, config_->reference_point());
+  return equations(cfg, t, x, aero, power);
+}
+
+FlightDerivative FlightDynamics::equations(const Configuration& cfg, double t, const BodyStateVector& x,
+                                           const Wrench& aero, double power) const {
   FlightDerivative out;
-  out.aero = loads(cfg, actuated ? *kin : trimmed_, t, x, out.power);
+  out.aero = aero;
+  out.power = power;
   const EomTerms e = eom_terms(cfg.mass_state(t), x, out.aero, g_);
   // Constrained accelerations are zero: solve the free rows of M a = rhs for the free entries of a.
   const std::array<bool, 6> free = free_accelerations(dofs_);

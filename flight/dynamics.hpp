@@ -54,6 +54,10 @@ class FlightDynamics {
   // dx/dt with the wings at kinematic time t_kin (phase t_kin * frequency) and the actuators offset by
   // `command` from their trimmed values (parameter units: deg or Hz; empty = no offset).
   FlightDerivative derivative(double t_kin, const BodyStateVector& x, const std::vector<double>& command) const;
+  // The same with the aerodynamic wrench about O (body axes) given, not computed: a load model with memory (the
+  // Navier-Stokes solver coupled step by step, flight/cfd_flight.hpp) supplies it. power is copied through.
+  FlightDerivative derivative(double t_kin, const BodyStateVector& x, const std::vector<double>& command,
+                              const Wrench& aero, double power = 0) const;
   // x with the velocity and rate components that the DoF set holds set to zero.
   BodyStateVector held(const BodyStateVector& x) const;
   // The kinematics with the actuators offset by command.
@@ -72,6 +76,8 @@ class FlightDynamics {
  private:
   Wrench loads(const Configuration& cfg, const Kinematics& kin, double t, const BodyStateVector& x,
                double& power) const;
+  FlightDerivative equations(const Configuration& cfg, double t, const BodyStateVector& x, const Wrench& aero,
+                             double power) const;
   const AeroModel& model_;
   const QuasiSteadyModel* qs_ = nullptr;
   Insect insect_;

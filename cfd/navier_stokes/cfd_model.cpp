@@ -201,6 +201,7 @@ const std::vector<CfdRunRecord>& CfdModel::records() const {
   return st_ ? st_->records : none;
 }
 const CfdPlan* CfdModel::plan() const { return st_ ? &st_->plan : nullptr; }
+const SimulationState* CfdModel::hover_state() const { return st_ ? &st_->hover_state : nullptr; }
 const std::vector<CycleRecord>& CfdModel::reference_cycles() const {
   static const std::vector<CycleRecord> none;
   return st_ ? st_->ref_cycles : none;

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 #include "cfd/navier_stokes/periodic.hpp"
+#include "cfd/navier_stokes/simulation.hpp"
 #include "core/aero_model.hpp"
 #include "core/case_file.hpp"
 
@@ -57,6 +58,11 @@ class CfdModel final : public AeroModel {
   const std::vector<CfdRunRecord>& records() const;
   // The grid every run shares (after the first run), and the reference continuation's cycle means.
   const CfdPlan* plan() const;
+  // The kept periodic hover state (the base hover's last wingbeat ends in it; after the first run), else nullptr:
+  // free flight coupled to the solver starts from it.
+  const SimulationState* hover_state() const;
+  // The base hover's run record (after the first run), else nullptr.
+  const CfdRunRecord* hover_record() const { return records().empty() ? nullptr : &records().front(); }
   const std::vector<CycleRecord>& reference_cycles() const;
 
  private:

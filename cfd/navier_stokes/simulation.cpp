@@ -76,6 +76,8 @@ struct Simulation::Impl : StageHooks {
   // Volume moments of the closed parts (the body: fixed in the body's frame, so computed once).
   std::vector<std::optional<VolumeMoments>> closed;
   int parts = 3;  // parts of the geometry (insect_part_count): the loads' rows carry as many
+  Simulation::PartSource source;  // a driver's part kinematics (free flight), else the prescribed motion
+  std::vector<PartState> parts_at(double t) const { return source ? source(t) : motion.parts(t); }
 
   double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
@@ -99,12 +101,12 @@ struct Simulation::Impl : StageHooks {
   }
   // Places the parts at the solver's time, marks the flags and routes the solver's stages through this.
   void attach() {
-    ib->set_parts(solver.time(), motion.parts(solver.time()));
+    ib->set_parts(solver.time(), parts_at(solver.time()));
     ib->attach(solver);
     solver.attach(this);
   }
   void after_predictor(VectorField& ustar, double t, double alpha_dt) override {
-    ib->set_parts(t, motion.parts(t));
+    ib->set_parts(t, parts_at(t));
     ib->after_predictor(ustar, t, alpha_dt);
   }
   void after_projection(VectorField& u, Field& p, double t) override { ib->after_projection(u, p, t); }
@@ -119,7 +121,7 @@ struct Simulation::Impl : StageHooks {
     r.parts = parts;
     if (!ib) return r;
     const auto loads = exchange ? ib->exchange_loads(solver, Vec3::Zero()) : ib->loads(solver, Vec3::Zero());
-    const auto states = motion.parts(tb);
+    const auto states = parts_at(tb);
     const Vec3& W = motion.body_motion().rate;
     for (int i = 0; i < parts; ++i) {
       const PartLoads& L = loads[std::size_t(i)];
@@ -168,7 +170,31 @@ const ImmersedBoundary* Simulation::immersed() const { return impl_->ib ? &*impl
 int Simulation::part_count() const { return impl_->parts; }
 std::vector<PartState> Simulation::part_states() const {
   if (!impl_->ib) return {};
-  return impl_->motion.parts(time());
+  return impl_->parts_at(time());
+}
+std::vector<PartState> Simulation::prescribed_parts(double t) const {
+  if (!impl_->ib) return {};
+  return impl_->motion.parts(t);
+}
+void Simulation::set_part_source(PartSource source) {
+  Impl& m = *impl_;
+  if (source && (motion_.velocity.squaredNorm() > 0 || motion_.rate.squaredNorm() > 0))
+    throw std::logic_error("Simulation::set_part_source: the simulation was planned with a body motion");
+  m.source = std::move(source);
+  if (m.ib) {
+    m.solver.attach(nullptr);
+    m.attach();
+  }
+  m.have_row = false;
+}
+double Simulation::part_volume(int part, Vec3* centroid) const {
+  const auto& c = impl_->closed.at(std::size_t(part));
+  if (!c || c->volume <= 0) {
+    if (centroid) *centroid = Vec3::Zero();
+    return 0;
+  }
+  if (centroid) *centroid = c->first / c->volume;
+  return c->volume;
 }
 
 void Simulation::restore(const SimulationState& s, const BodyMotion& state_motion) {

@@ -107,6 +107,19 @@ class Simulation {
   SurfacePressure surface_pressure(int part) const;
   // The parts' kinematics at the current time (the order of part_names; grid axes); empty without bodies.
   std::vector<PartState> part_states() const;
+  // The parts' kinematics relative to the body (body axes, origin O) at time t as the prescribed wing motion gives
+  // them, whatever moves the body: with a steady body motion the grid is the body's frame and these are what the
+  // immersed boundary takes; empty without bodies.
+  std::vector<PartState> prescribed_parts(double t) const;
+  // Replaces the prescribed kinematics the immersed boundary takes at every stage time (and at restore) by a
+  // driver's: a free-flight coupling moves the parts with the body through a grid fixed in space (the simulation
+  // must then be planned with no body motion: still air, no turning frame). An empty function restores the
+  // prescribed motion. The loads' wing power then uses the driver's velocities. Call before advance().
+  using PartSource = std::function<std::vector<PartState>(double t)>;
+  void set_part_source(PartSource source);
+  // Volume (m^3) of a closed part (0 for a membrane) and its centroid in body axes at t = 0 (the body is fixed in
+  // its own frame): the buoyancy of a body in a grid fixed in space, whose pressure carries no hydrostatics.
+  double part_volume(int part, Vec3* centroid = nullptr) const;
   // The immersed boundary holding the parts (nullptr for a body-free simulation).
   const ImmersedBoundary* immersed() const;
   // 1 in cells inside a part at the current time, else 0 (ImmersedBoundary::solid_mask; all 0 without bodies).

@@ -1,0 +1,234 @@
+// Free flight coupled to the Navier-Stokes solver (flight/cfd_flight.hpp, cfd/navier_stokes/free_body.hpp).
+//
+// Validation (docs/validation.md, "Fluid-body coupling"):
+//  - a sphere settling freely under gravity from rest in fluid at rest, density ratio 2, reaches the terminal
+//    velocity of the standard drag curve (Clift, Grace & Weber 1978, Bubbles, Drops and Particles, Table 5.2:
+//    C_D = 24/Re (1 + 0.1935 Re^0.6305), 20 <= Re <= 260) at Re ~ 20; its early acceleration is that of the
+//    weight less buoyancy against the mass plus the added mass rho_f V / 2 (potential flow; the Basset history
+//    force grows from zero as t^1/2);
+//  - a neutrally buoyant sphere released in fluid at rest stays at rest.
+#include <gtest/gtest.h>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include "cfd/navier_stokes/free_body.hpp"
+#include "cfd/navier_stokes/immersed.hpp"
+#include "core/rotation.hpp"
+
+namespace {
+
+using namespace flapstab;
+using namespace flapstab::ns;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Standard drag curve (Clift, Grace & Weber 1978, Table 5.2).
+double standard_drag(double re) {
+  if (re > 20) return 24 / re * (1 + 0.1935 * std::pow(re, 0.6305));
+  const double w = std::log10(re);
+  return 24 / re * (1 + 0.1315 * std::pow(re, 0.82 - 0.05 * w));
+}
+
+// Terminal velocity of a sphere (diameter D, density ratio s) from the curve: (s - 1) g D 4/3 = C_D(Re) U^2.
+double terminal_velocity(double D, double s, double g, double nu) {
+  double lo = 1e-6, hi = 100;
+  for (int i = 0; i < 200; ++i) {
+    const double u = std::sqrt(lo * hi);
+    const double lhs = (s - 1) * g * D * 4 / 3, rhs = standard_drag(u * D / nu) * u * u;
+    (rhs > lhs ? hi : lo) = u;
+  }
+  return std::sqrt(lo * hi);
+}
+
+// A sphere of density ratio s free to translate (no rotation: a sphere's torque is small and it does not change
+// its drag), coupled explicitly with the loads of the step's start held (the scheme of flight/cfd_flight.hpp, with
+// the same free_body helpers). Closed box of walls, gravity +z.
+struct SettlingSphere {
+  double D = 1, s = 2, g = 1, nu = 0.05, h = 0.125;
+  bool exchange = true;  // momentum-exchange loads (the insects' default), else the surface integral
+  struct Sample {
+    double t, w, a;
+  };
+  std::vector<Sample> run(double t_end, double fall) const {
+    const Grid grid(Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, h, 1.1, 8}, false),
+                    Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, h, 1.1, 8}, false),
+                    Axis::stretched(StretchedAxis{-4, fall + 4, -0.8, fall + 0.8, h, 1.1, 8}, false));
+    SolverOptions opt;
+    opt.nu = nu;
+    opt.cfl = 0.8;
+    opt.dt_max = 0.05 * D / terminal_velocity(D, std::max(s, 1.5), g, nu);
+    Solver solver(grid, Boundaries::all(BC::velocity), opt);
+    solver.initialise([](double, double, double) { return Vec3::Zero(); });
+    const TriangleMesh mesh = sphere_mesh(D / 2, 16);
+    ImmersedBoundary ib(grid, ImmersedOptions{.density = 1.0});
+    const double V = pi * D * D * D / 6, m = s * V;  // fluid density 1
+    // Body state: position, velocity (body = grid axes: no rotation), the rest held at zero.
+    BodyStateVector x = BodyStateVector::Zero();
+    Vec3 held = Vec3::Zero();  // fluid force at the step's start
+    double t_base = 0;
+    BodyStateVector x_base = x;
+    auto rhs = [&](double, const BodyStateVector& y) {
+      BodyStateVector d = BodyStateVector::Zero();
+      d.segment<3>(0) = y.segment<3>(3);
+      d.segment<3>(3) = (held + Vec3(0, 0, (m - V) * g)) / m;
+      return d;
+    };
+    auto body_at = [&](double t) { return integrate_body(rhs, t_base, x_base, t, 2); };
+    auto parts_at = [&](double t) {
+      const BodyStateVector y = body_at(t);
+      return std::vector<PartState>{part_in_grid(body_frame(y, rhs(t, y)), PartState{})};
+    };
+    ib.add_part(mesh, parts_at(0)[0]);
+    struct Hooks : StageHooks {
+      ImmersedBoundary* ib;
+      std::function<std::vector<PartState>(double)> parts;
+      void after_predictor(VectorField& u, double t, double adt) override {
+        ib->set_parts(t, parts(t));
+        ib->after_predictor(u, t, adt);
+      }
+      void after_projection(VectorField& u, Field& p, double t) override { ib->after_projection(u, p, t); }
+    } hooks;
+    hooks.ib = &ib;
+    hooks.parts = parts_at;
+    ib.set_parts(0, parts_at(0));
+    ib.attach(solver);
+    solver.attach(&hooks);
+    std::vector<Sample> out;
+    while (solver.time() < t_end - 1e-12) {
+      t_base = solver.time();
+      x_base = x;
+      solver.step();
+      x = body_at(solver.time());
+      const auto L = exchange ? ib.exchange_loads(solver, Vec3::Zero()) : ib.loads(solver, Vec3::Zero());
+      held = wrench_on_body(body_frame(x, BodyStateVector::Zero()), L[0].force(), L[0].moment()).force;
+      out.push_back({solver.time(), x(5), rhs(0, x)(5)});
+      if (x(2) > fall) break;
+    }
+    return out;
+  }
+};
+
+// The Basset-Boussinesq-Oseen equation of a sphere released from rest (Maxey & Riley 1983, Phys Fluids 26:883):
+// (m + m_a) U' = (m - m_f) g - 3 pi mu D U - (3/2) D^2 sqrt(pi rho mu) int_0^t U'(s) / sqrt(t - s) ds, the history
+// integral with U' piecewise constant (product integration, implicit in the newest interval). Valid while the
+// particle Reynolds number is small (early times). Returns U(t_end).
+double bbo_velocity(double D, double s, double g, double nu, double t_end, int n = 4000) {
+  const double V = pi * D * D * D / 6, m = s * V, ma = V / 2, mu = nu, K = 1.5 * D * D * std::sqrt(pi * mu);
+  const double dt = t_end / n;
+  std::vector<double> a;
+  double U = 0;
+  for (int k = 0; k < n; ++k) {
+    const double t = (k + 1) * dt;
+    // history of the earlier intervals at t; the newest interval's weight multiplies the unknown a_k
+    double hist = 0;
+    for (int j = 0; j < k; ++j) hist += a[std::size_t(j)] * 2 * (std::sqrt(t - j * dt) - std::sqrt(t - (j + 1) * dt));
+    const double w_new = 2 * std::sqrt(dt);
+    // (m + ma) a_k = (m - V) g - 3 pi mu D (U + a_k dt) - K (hist + a_k w_new)
+    const double ak = ((m - V) * g - 3 * pi * mu * D * U - K * hist) / (m + ma + 3 * pi * mu * D * dt + K * w_new);
+    a.push_back(ak);
+    U += ak * dt;
+  }
+  return U;
+}
+
+// The drag of the same sphere held fixed in a uniform stream U on the same grid (inflow at z-, outflow at z+,
+// the lateral faces at U), mean over the last quarter of t in [0, t_end]: the load the coupled sphere settles on.
+double fixed_sphere_drag(const SettlingSphere& sp, double U, double t_end) {
+  const double fall = 12;
+  const Grid grid(Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, sp.h, 1.1, 8}, false),
+                  Axis::stretched(StretchedAxis{-5, 5, -0.8, 0.8, sp.h, 1.1, 8}, false),
+                  Axis::stretched(StretchedAxis{-4, fall + 4, -0.8, fall + 0.8, sp.h, 1.1, 8}, false));
+  Boundaries bc = Boundaries::all(BC::velocity);
+  for (auto& f : bc.face) f.velocity = [U](double) { return Vec3(0, 0, -U); };
+  bc.face[face(2, 0)] = {BC::outflow, {}, {}};
+  SolverOptions opt;
+  opt.nu = sp.nu;
+  opt.cfl = 0.8;
+  opt.dt_max = 0.05 * sp.D / U;
+  Solver solver(grid, bc, opt);
+  solver.initialise([U](double, double, double) { return Vec3(0, 0, -U); });
+  ImmersedBoundary ib(grid, ImmersedOptions{.density = 1.0});
+  ib.add_part(sphere_mesh(sp.D / 2, 16), fixed_part(RigidTransform{Mat3::Identity(), Vec3(0, 0, fall / 2)}));
+  ib.attach(solver);
+  double sum = 0;
+  int n = 0;
+  while (solver.time() < t_end - 1e-12) {
+    solver.step();
+    if (solver.time() > 0.75 * t_end) {
+      const auto L = sp.exchange ? ib.exchange_loads(solver, Vec3::Zero()) : ib.loads(solver, Vec3::Zero());
+      sum -= L[0].force().z(), ++n;
+    }
+  }
+  return sum / n;
+}
+
+// Settling sphere, density ratio 10, Re ~ 20, D/8, the insects' default (momentum-exchange) loads (CI).
+//  1. The coupling itself: the sphere's equation at its last instant, drag = net weight (s - 1) rho_f V g less
+//     (m + rho_f V / 2) dw/dt (dw/dt from the last 2 D/U: the Oseen tail), against the drag the same grid gives a
+//     fixed sphere in a uniform stream at the settling sphere's speed relative to the fluid around it (w_end
+//     A / (A - A_s): the closed box's return flow through its cross-section A). Tolerance 2 % (a moving and a fixed
+//     sphere on D/8 differ by 0.1-0.7 % in the Galilean test; the exchange loads' stage-to-stage noise).
+//  2. Against the drag curve: w_end within 8 % of the curve's terminal velocity. The exchange loads over-read the
+//     sphere's drag on coarse grids (+4 % at D/12, Re 100), and U ~ C_D^(-0.7) near Re 20; docs/validation.md
+//     records the finer grids.
+//  Printed, not asserted: w at t = 0.5 D/U against the Basset-Boussinesq-Oseen equation. On D/8 the exchange loads'
+//  added mass is about twice the potential-flow value (the force partitioning's accelerated-sphere test), which
+//  slows the start; docs/validation.md gives the finer grids.
+TEST(FluidBodyCoupling, SettlingSphereReachesTheStandardDragCurveTerminalVelocity) {
+  SettlingSphere sp;
+  sp.nu = 0.05;
+  sp.s = 10;
+  sp.exchange = true;
+  // FB_H=0.0625 (D/16) etc. runs the converged grids of docs/validation.md; FB_SURFACE=1 the surface loads.
+  if (const char* e = std::getenv("FB_H")) sp.h = std::atof(e);
+  if (std::getenv("FB_SURFACE")) sp.exchange = false;
+  sp.g = 0.75 * standard_drag(20) / (sp.s - 1);  // the curve's terminal velocity 1 at Re = 20
+  const double U = terminal_velocity(sp.D, sp.s, sp.g, sp.nu);
+  ASSERT_NEAR(U, 1.0, 1e-6);
+  const auto t0 = std::chrono::steady_clock::now();
+  const double t_end = 24;
+  const auto r = sp.run(t_end, t_end - 1);
+  ASSERT_FALSE(r.empty());
+  double w_half = 0;
+  for (const auto& q : r)
+    if (q.t <= 0.5 + 1e-9) w_half = q.w;
+  const double w_bbo = bbo_velocity(sp.D, sp.s, sp.g, sp.nu, 0.5);
+  const double w_end = r.back().w;
+  double w_before = 0;
+  for (const auto& q : r)
+    if (q.t <= r.back().t - 2) w_before = q.w;
+  const double t_run = seconds_since(t0);
+  const double V = pi / 6, A = 100, As = pi / 4;  // the box's cross-section: 10 x 10 D
+  const double dwdt = (w_end - w_before) / (r.back().t - (r.back().t - 2));
+  const double need = (sp.s - 1) * V * sp.g - (sp.s + 0.5) * V * dwdt;
+  const double u_rel = w_end * A / (A - As);
+  const double drag = fixed_sphere_drag(sp, u_rel, 12.0);
+  std::printf("  settling sphere (s = %.1f, Re_t %.1f by the curve, D/%.0f, %s loads): w(0.5) %.5f vs BBO %.5f (%+.2f %%); "
+              "w(t = %.2f) = %.4f vs the curve's %.4f (%+.2f %%), 2 D/U earlier %.4f; fixed sphere at U = %.4f: drag "
+              "%.4f vs the settling sphere's %.4f (%+.2f %%); %zu steps, %.1f s + %.1f s\n",
+              sp.s, U * sp.D / sp.nu, sp.D / sp.h, sp.exchange ? "exchange" : "surface", w_half, w_bbo,
+              100 * (w_half / w_bbo - 1), r.back().t, w_end, U, 100 * (w_end / U - 1), w_before, u_rel, drag, need,
+              100 * (drag / need - 1), r.size(), t_run, seconds_since(t0) - t_run);
+  EXPECT_NEAR(drag / need, 1.0, 0.02);
+  EXPECT_NEAR(w_end / U, 1.0, 0.08);
+}
+
+// A neutrally buoyant sphere released in fluid at rest: no net weight, no flow, no motion. The coupling must not
+// create any (a spurious load from the held wrench, the buoyancy or the forcing would). Tolerance 1e-12 D/(D/U).
+TEST(FluidBodyCoupling, NeutrallyBuoyantSphereStaysAtRest) {
+  SettlingSphere sp;
+  sp.s = 1.0;
+  sp.g = 1.0;
+  sp.h = 0.25;
+  const auto r = sp.run(1.0, 1.0);
+  double wmax = 0;
+  for (const auto& q : r) wmax = std::max(wmax, std::abs(q.w));
+  std::printf("  neutrally buoyant sphere: max |w| %.2e over %zu steps\n", wmax, r.size());
+  EXPECT_LT(wmax, 1e-12);
+}
+
+}  // namespace
