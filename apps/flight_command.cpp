@@ -68,8 +68,8 @@ std::vector<int> moving_states(DofSet d) {
 void require_quasi_steady(const Case& c, const char* command) {
   if (c.aero.model != "quasi-steady")
     throw InputError(c.path, "aero.model",
-                     fmt::format("flapstab {} runs on the quasi-steady model; free flight coupled to the Navier-Stokes "
-                                 "solver is not available yet", command),
+                     fmt::format("flapstab {} runs on the quasi-steady model (flapstab fly also on model = \"cfd\", "
+                                 "open loop)", command),
                      "model = \"quasi-steady\"");
 }
 
@@ -78,7 +78,7 @@ void require_quasi_steady(const Case& c, const char* command) {
 int run_fly(const FlightCommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case_for(o.case_path, "fly");
-  require_quasi_steady(c, "fly");
+  if (c.aero.model != "cfd") require_quasi_steady(c, "fly");
   const std::string dir = output_dir(c, o.output_dir);
   const DofSet dofs = parse_dof_set(o.dof.empty() ? c.flight.dof : o.dof, o.dof.empty() ? c.path : "--dof",
                                     o.dof.empty() ? "flight.dof" : "");
@@ -105,6 +105,7 @@ int run_fly(const FlightCommandOptions& o) {
                        "the longitudinal mode moves u, w, q and theta, which the '" + dof_set_name(dofs) + "' set does not",
                        "dof = \"longitudinal\" or \"6dof\"");
   }
+  if (c.aero.model == "cfd") return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
   const auto model = make_aero_model(c);
   const std::vector<TrimParameterSpec> actuators = controller_actuators(c);
 

@@ -2,6 +2,7 @@
 // delay-exact (gain, latency) stability map of the pitch controller with simulated check points.
 #pragma once
 #include <string>
+#include <vector>
 
 namespace flapstab {
 
@@ -15,6 +16,12 @@ struct FlightCommandOptions {
 
 // flapstab fly CASE -o DIR: trajectory.csv, run.json, response.svg.
 int run_fly(const FlightCommandOptions& o);
+// flapstab fly with [aero] model = "cfd" (apps/flight_cfd.cpp), after run_fly's checks of the case: free flight
+// coupled to the Navier-Stokes solver; trajectory.csv, steps.csv, run.json, response.svg and a checkpoint.
+struct Case;
+enum class DofSet;
+int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
+                const std::vector<int>& moving);
 // flapstab control-map CASE -o DIR: control_map.json, control_map.csv, control_map.svg.
 int run_control_map(const FlightCommandOptions& o);
 

@@ -128,6 +128,10 @@ struct FlightSettings {
   int samples_per_wingbeat = 40;
   double rtol = 1e-9;
   std::string start = "periodic-orbit";  // "periodic-orbit" (cyclic trim) | "rest" (the perturbation alone)
+  // With [aero] model = "cfd": "cancel" holds minus the tethered CFD hover's cycle-mean residual (its mean force and
+  // moment with the weight, body axes) as a constant wrench, so that the hover is an equilibrium on average when the
+  // grid's lift falls short of the weight; "keep" flies the residual (the insect sinks and pitches).
+  std::string cfd_residual = "cancel";
   // [flight.perturbation]: added to the start state. Keys u_m_s v_m_s w_m_s p_deg_s q_deg_s r_deg_s phi_deg
   // theta_deg psi_deg x_m y_m z_m, or mode = "longitudinal" | "lateral" (the most unstable Floquet mode of that
   // subsystem) scaled to mode_amplitude (non-dimensional max-norm).

@@ -48,7 +48,8 @@ Wrench CfdFlight::buoyancy(const BodyStateVector& x) const {
 
 BodyStateVector CfdFlight::rhs(double t, const BodyStateVector& x, const Wrench& held) const {
   const Wrench b = buoyancy(x);
-  return dyn_.derivative(t, x, {}, Wrench{held.force + b.force, held.moment + b.moment}).dx;
+  return dyn_.derivative(t, x, {}, Wrench{held.force + b.force + offset_.force, held.moment + b.moment + offset_.moment})
+      .dx;
 }
 
 BodyStateVector CfdFlight::body_at(double t) const {

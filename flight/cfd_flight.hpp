@@ -60,6 +60,10 @@ class CfdFlight {
   const CfdFlightStep& current() const { return cur_; }
   const ns::Simulation& simulation() const { return *sim_; }
   double body_mass() const;
+  // A constant wrench (body axes, about O) added to the fluid's in the body's equations (the residual of an
+  // untrimmed hover cancelled; flapstab fly [flight] cfd_residual). Zero by default.
+  void set_offset(const Wrench& w) { offset_ = w; }
+  const Wrench& offset() const { return offset_; }
   // Exact continuation: the flow state, the body state and the fluid wrench held over the next step (the
   // current step's aero).
   ns::SimulationState flow_state() const { return sim_->state(); }
@@ -85,6 +89,7 @@ class CfdFlight {
   double base_time_ = 0;
   BodyStateVector base_x_ = BodyStateVector::Zero();
   Wrench base_aero_;
+  Wrench offset_;
 };
 
 }  // namespace flapstab

@@ -1,0 +1,375 @@
+// flapstab fly with [aero] model = "cfd": free flight coupled to the Navier-Stokes solver (flight/cfd_flight.hpp).
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+
+#include "apps/flight_command.hpp"
+#include "apps/plots.hpp"
+#include "apps/results_json.hpp"
+#include "cfd/aero_factory.hpp"
+#include "cfd/derivatives.hpp"
+#include "trim/refine.hpp"
+#include "cfd/navier_stokes/cfd_model.hpp"
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/plan.hpp"
+#include "cfd/navier_stokes/run.hpp"
+#include "core/atomic_write.hpp"
+#include "core/body_state.hpp"
+#include "core/errors.hpp"
+#include "core/hash.hpp"
+#include "core/interrupt.hpp"
+#include "flight/cfd_flight.hpp"
+
+namespace flapstab {
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+std::string state_column(int i) {
+  std::string u = body_state_units()[std::size_t(i)];
+  std::replace(u.begin(), u.end(), '/', '_');
+  return fmt::format("{}_{}", body_state_names()[std::size_t(i)], u);
+}
+
+std::string steps_header() {
+  std::string h = "t_s,step,wingbeat,cfl";
+  for (int i = 0; i < 12; ++i) h += "," + state_column(i);
+  h += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,buoyancy_X_N,buoyancy_Y_N,buoyancy_Z_N,buoyancy_L_N_m,buoyancy_M_N_m,"
+       "buoyancy_N_N_m,power_W\n";
+  return h;
+}
+
+std::string steps_row(const CfdFlightStep& s, double T) {
+  std::vector<double> row{s.time, double(s.step), s.time / T, s.cfl};
+  for (int i = 0; i < 12; ++i) row.push_back(s.x(i));
+  for (const Wrench* w : {&s.aero, &s.buoyancy}) {
+    for (int i = 0; i < 3; ++i) row.push_back(w->force(i));
+    for (int i = 0; i < 3; ++i) row.push_back(w->moment(i));
+  }
+  row.push_back(s.power);
+  return fmt::format("{:.17g}\n", fmt::join(row, ","));
+}
+
+CfdFlightStep parse_steps_row(const std::string& line, double T) {
+  std::vector<double> v;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
+  if (v.size() != 4 + 12 + 12 + 1) throw std::invalid_argument("row length");
+  CfdFlightStep s;
+  s.time = v[0];
+  s.step = long(v[1]);
+  (void)T;
+  s.cfl = v[3];
+  for (int i = 0; i < 12; ++i) s.x(i) = v[std::size_t(4 + i)];
+  std::size_t k = 16;
+  for (Wrench* w : {&s.aero, &s.buoyancy}) {
+    for (int i = 0; i < 3; ++i) w->force(i) = v[k++];
+    for (int i = 0; i < 3; ++i) w->moment(i) = v[k++];
+  }
+  s.power = v[k];
+  return s;
+}
+
+}  // namespace
+
+int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
+                const std::vector<int>& moving) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (c.control.type != "none")
+    throw InputError(c.path, "control.type",
+                     "closed-loop free flight coupled to the Navier-Stokes solver is not available yet (only the "
+                     "open loop: the controller's kinematics changes are not passed to the immersed wings)",
+                     "type = \"none\" with [aero] model = \"cfd\", or [aero] model = \"quasi-steady\"");
+  if (!c.flight.mode.empty())
+    throw InputError(c.path, "flight.perturbation.mode",
+                     "a Floquet mode of the Navier-Stokes model is not available as a starting perturbation",
+                     "the perturbation as state values (u_m_s, q_deg_s, theta_deg, ...)");
+  // The kinematics: the quasi-steady trim refined on the CFD cycle means ([aero.cfd] trim_iterations), as the CFD
+  // stability chain takes them (flapstab trim-hover / analyze with model = "cfd"), on the same grid.
+  Case qc = c;
+  qc.aero.model = "quasi-steady";
+  const auto qs = make_aero_model(qc);
+  const TrimResult start = trim_hover(qc, *qs);
+  if (!start.converged)
+    throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
+                                 start.message));
+  std::ostream* log = o.quiet ? nullptr : &std::cout;
+  auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
+  const std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
+  model->plan_for(extremes);
+  const TrimResult trim = refine_trim(c, *model, *qs, start,
+                                      RefineSettings{c.aero.cfd.trim_tolerance, c.aero.cfd.trim_iterations}, log);
+  const Kinematics& kin = trim.kinematics;
+  if (trim.model_runs > 1) {  // the kept hover is of the start's kinematics: the trimmed one's own, same grid
+    model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache_trimmed");
+    model->plan_for(extremes);
+  }
+  const double T = kin.period();
+  BodyStateVector x0 = BodyStateVector::Zero();
+  for (const auto& [name, value] : c.flight.perturbation) x0(*body_state_index(name)) += value;
+  const bool from_hover = c.flight.start == "periodic-orbit";
+
+  // The flow to start from: the kept periodic hover (tethered, reused from DIR/cfd_cache when it was computed
+  // before), or rest.
+  model->run(c.insect, kin, BodyMotion{}, AeroRunOptions{});  // the hover (reused when computed before)
+  const ns::SimulationState* hover = from_hover ? model->hover_state() : nullptr;
+  const ns::CfdPlan plan = *model->plan();
+  const FlightDynamics dyn(*model, c.insect, kin, {}, dofs, std::nullopt, false, c.path);
+  CfdFlight fl(c, dyn, plan);
+  // The tethered hover's cycle-mean residual: its last wingbeat's mean wrench with the weight (body at rest at O, so
+  // body axes = grid axes; the wings' mean inertial loads vanish over a wingbeat and O is the mean centre of mass).
+  Wrench residual;
+  const double weight = c.insect.total_mass() * c.insect.gravity;
+  if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
+    residual = h->cycles.back().mean;
+    Vec3 centroid;
+    const double V = fl.simulation().part_volume(0, &centroid);
+    residual.force += Vec3(0, 0, weight - plan.rho * V * c.insect.gravity);
+    residual.moment += centroid.cross(Vec3(0, 0, -plan.rho * V * c.insect.gravity));
+  }
+  if (c.flight.cfd_residual == "cancel") fl.set_offset(Wrench{-residual.force, -residual.moment});
+  const double mc = weight * c.insect.wing.mean_chord;
+  const int spc = plan.steps_per_cycle;
+  const long total = std::lround(wingbeats * spc);
+  const int spw = std::max(1, std::min(c.flight.samples_per_wingbeat, spc));
+  const int stride = std::max(1, spc / spw);
+
+  // Resume: a checkpoint of the same case, start, degrees of freedom and perturbation continues exactly.
+  std::string pert = c.flight.cfd_residual + ";";
+  for (const auto& [name, value] : c.flight.perturbation) pert += fmt::format("{}={:.17g};", name, value);
+  const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}", ns::case_hash(c.path), c.flight.start,
+                                                  dof_set_name(dofs), pert));
+  const std::string ck_path = dir + "/flight_checkpoint.h5", ck_rows = dir + "/flight_checkpoint.csv";
+  std::vector<CfdFlightStep> steps;
+  bool resumed = false;
+  if (fs::exists(ck_path) && fs::exists(ck_rows)) {
+    const ns::CheckpointReader ck(ck_path);
+    const auto it = ck.header().text.find("key");
+    if (it != ck.header().text.end() && it->second == key) {
+      const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(plan).shape());
+      BodyStateVector x;
+      Wrench held;
+      const auto& v = ck.header().values;
+      for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));
+      for (int i = 0; i < 3; ++i) held.force(i) = v.at(fmt::format("F{}", i)), held.moment(i) = v.at(fmt::format("M{}", i));
+      std::ifstream in(ck_rows);
+      std::string line;
+      std::getline(in, line);
+      while (std::getline(in, line)) {
+        if (line.empty()) continue;
+        CfdFlightStep r;
+        try {
+          r = parse_steps_row(line, T);
+        } catch (const std::exception&) {
+          throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
+        }
+        if (r.step <= s.step) steps.push_back(r);
+      }
+      fl.restore(s, x, held);
+      resumed = true;
+      if (!o.quiet)
+        fmt::print("{}: resumed from {} at step {} (t/T = {:.3f})\n", c.path, ck_path, s.step, s.time / T);
+    } else if (!o.quiet) {
+      fmt::print("{}: {} is of another case, start or perturbation: starting afresh\n", c.path, ck_path);
+    }
+  }
+  if (!resumed) {
+    fl.start(hover, x0);
+    steps.push_back(fl.current());
+  }
+  const long first = steps.front().step;
+  if (!o.quiet) {
+    fmt::print("{}: free flight of '{}' coupled to the Navier-Stokes solver, {} degrees of freedom, {} wingbeats from "
+               "the {}\n",
+               c.path, c.insect.name, dof_set_name(dofs), wingbeats,
+               from_hover ? "kept periodic hover (tethered)" : "flow at rest");
+    fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z {:+.3f} "
+               "W, M {:+.4f} W c; {}\n",
+               residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,
+               c.flight.cfd_residual == "cancel" ? "cancelled by a constant wrench ([flight] cfd_residual = \"cancel\")"
+                                                 : "kept: the insect flies with it ([flight] cfd_residual = \"keep\")");
+    fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; the body must stay in the fine box "
+               "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m\n",
+               ns::plan_grid(plan).cells(), plan.chord_cells, spc, plan.fine_lo.x(), plan.fine_hi.x(),
+               plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z());
+  }
+
+  auto checkpoint = [&]() {
+    fs::create_directories(dir);
+    std::map<std::string, double> v;
+    const CfdFlightStep& cur = fl.current();
+    for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
+    for (int i = 0; i < 3; ++i) v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
+    std::string rows = steps_header();
+    for (const auto& s : steps) rows += steps_row(s, T);
+    write_file_atomic(ck_rows, rows);
+    ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}});
+  };
+
+  FlightResult r;
+  std::string stop;
+  const double max_angle = FlightOptions{}.max_pitch_deg * M_PI / 180;
+  const InterruptGuard guard;
+  const auto tr = std::chrono::steady_clock::now();
+  const long start_step = steps.back().step;
+  try {
+    while (steps.back().step - first < total) {
+      const CfdFlightStep s = fl.advance();
+      steps.push_back(s);
+      const long done = s.step - first;
+      if (std::abs(s.x(10)) > max_angle || std::abs(s.x(9)) > max_angle) {
+        stop = fmt::format("the attitude left the envelope (|theta| or |phi| > {:g} deg) at t/T = {:.3f}",
+                           max_angle * 180 / M_PI, s.time / T);
+        break;
+      }
+      if (done % spc == 0 || done == total) {
+        checkpoint();
+        if (!o.quiet) {
+          const double el = seconds_since(tr), rate = el / double(s.step - start_step);
+          fmt::print("  wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm; "
+                     "{:.0f} s, about {:.0f} s left\n",
+                     double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
+                     s.x(2) * 1e3, seconds_since(t0), rate * double(total - done));
+        }
+      }
+      if (const int sig = interrupt_requested(); sig != 0) {
+        checkpoint();
+        clear_interrupt();
+        throw Interrupted(sig, fmt::format("free flight stopped on {} at step {} (t/T = {:.4f}); {} is written: the "
+                                           "same command continues",
+                                           signal_name(sig), s.step, s.time / T, ck_path));
+      }
+    }
+  } catch (const BodyLeftGrid& e) {
+    steps.push_back(fl.current());
+    checkpoint();
+    throw SolveError(fmt::format("{} (checkpoint {} written)", e.what(), ck_path));
+  } catch (const ns::StepFailure& e) {
+    throw SolveError(fmt::format("free flight: the flow diverged at step {} (t/T = {:.4f}): {}; the last checkpoint "
+                                 "is {}",
+                                 e.step(), e.time() / T, e.why(), ck_path));
+  }
+
+  // The phase-locked samples for the trajectory and the growth estimate (the reference: the tethered hover,
+  // the body at rest at O).
+  for (const auto& s : steps)
+    if ((s.step - first) % stride == 0) {
+      FlightSample q;
+      q.t = s.time - steps.front().time;
+      q.x = s.x;
+      q.aero = s.aero;
+      q.power = s.power;
+      r.samples.push_back(q);
+    }
+  r.completed = stop.empty();
+  r.stop_reason = stop;
+  r.steps = steps.back().step - first;
+  r.wall_time_s = seconds_since(tr);
+  const ReferenceOrbit reference{[](double) { return BodyStateVector::Zero().eval(); }, BodyStateVector::Zero()};
+  const ReferenceQuantities ref = reference_quantities(c.insect, kin, c.fluid);
+  const GrowthEstimate growth = wingbeat_growth(r, reference, ref, T, moving);
+
+  std::string csv = "t_s,wingbeat";
+  for (int i = 0; i < 12; ++i) csv += "," + state_column(i);
+  csv += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,power_W\n";
+  for (const FlightSample& s : r.samples) {
+    std::vector<double> row{s.t, s.t / T};
+    for (int i = 0; i < 12; ++i) row.push_back(s.x(i));
+    for (int i = 0; i < 3; ++i) row.push_back(s.aero.force(i));
+    for (int i = 0; i < 3; ++i) row.push_back(s.aero.moment(i));
+    row.push_back(s.power);
+    csv += fmt::format("{:.10g}\n", fmt::join(row, ","));
+  }
+  std::string steps_csv = steps_header();
+  for (const auto& s : steps) steps_csv += steps_row(s, T);
+
+  json j = metadata_json(c, "fly");
+  j["flight"] = {{"dof", dof_set_name(dofs)},
+                 {"wingbeats", wingbeats},
+                 {"start", c.flight.start},
+                 {"start_flow", from_hover ? "the kept periodic hover of the Navier-Stokes model (tethered: body at rest at O)"
+                                           : "fluid at rest"},
+                 {"samples_per_wingbeat", spc / stride},
+                 {"period_s", T},
+                 {"kinematics", trim.model_runs > 1 ? "the quasi-steady trim refined on the CFD cycle means"
+                                                    : "the quasi-steady trim (the CFD trim refinement: [aero.cfd] trim_iterations)"},
+                 {"trim_residual_force", trim.relative_force_residual},
+                 {"trim_residual_moment", trim.relative_moment_residual},
+                 {"initial_state", json::object()},
+                 {"cfd_residual", c.flight.cfd_residual},
+                 {"hover_residual", {{"force_N", {residual.force.x(), residual.force.y(), residual.force.z()}},
+                                     {"moment_N_m", {residual.moment.x(), residual.moment.y(), residual.moment.z()}},
+                                     {"note", "the tethered CFD hover's last-wingbeat mean wrench with the weight and "
+                                              "buoyancy, body axes, about O; with cfd_residual = \"cancel\" its "
+                                              "negative acts on the body as a constant wrench"}}},
+                 {"coupling", "explicit: the body's equations integrated over each fluid step with the fluid wrench of "
+                              "the step's start held (classical Runge-Kutta, 2 sub-steps to each stage time); grid fixed "
+                              "in space (still air); buoyancy of the closed parts added"}};
+  for (int i = 0; i < 12; ++i)
+    j["flight"]["initial_state"][body_state_names()[std::size_t(i)] + "_" + body_state_units()[std::size_t(i)]] = x0(i);
+  j["cfd"] = {{"cells", ns::plan_grid(plan).cells()},
+              {"cells_per_chord", plan.chord_cells},
+              {"steps_per_wingbeat", spc},
+              {"reynolds", plan.reynolds},
+              {"loads", c.aero.cfd.loads},
+              {"fine_box_m", {{plan.fine_lo.x(), plan.fine_lo.y(), plan.fine_lo.z()},
+                              {plan.fine_hi.x(), plan.fine_hi.y(), plan.fine_hi.z()}}}};
+  if (const auto* h = model->hover_record()) {
+    json cyc = json::array();
+    for (const auto& q : h->cycles) cyc.push_back({{"lift_N", -q.mean.force.z()}, {"change", q.change}});
+    j["cfd"]["hover"] = {{"wingbeats", h->cycles.size()}, {"converged", h->converged}, {"reused", h->reused},
+                         {"cycles", cyc}};
+  }
+  j["result"] = {{"completed", r.completed},
+                 {"stop_reason", r.stop_reason},
+                 {"steps", r.steps},
+                 {"resumed", resumed},
+                 {"simulation_time_s", r.wall_time_s},
+                 {"deviation_per_wingbeat_nd", growth.deviation},
+                 {"deviation_note", "largest non-dimensional deviation from the tethered hover (body at rest at O) "
+                                    "within each wingbeat (velocities / U, rates c / U, angles rad) over the moving states"},
+                 {"growth_per_wingbeat", std::isfinite(growth.per_wingbeat) ? json(growth.per_wingbeat) : json(nullptr)},
+                 {"growth_fit_wingbeats", {growth.first, growth.last}}};
+  j["wall_time_s"] = seconds_since(t0);
+  LinePlot plot;
+  plot.title = c.insect.name + ": free flight coupled to the Navier-Stokes solver (" + dof_set_name(dofs) + ")";
+  plot.xlabel = "time (wingbeats)";
+  plot.ylabel = "state";
+  Series th{"pitch theta (deg)", {}, {}}, zz{"z (mm, down)", {}, {}};
+  for (const FlightSample& s : r.samples) {
+    th.x.push_back(s.t / T);
+    th.y.push_back(s.x(10) * 180 / M_PI);
+    zz.x.push_back(s.t / T);
+    zz.y.push_back(s.x(2) * 1e3);
+  }
+  plot.series = {th, zz};
+  std::string why;
+  const auto svg = render_svg(plot, why);
+  if (!svg) j["figure_notice"] = why;
+  std::vector<std::pair<std::string, std::string>> out = {{dir + "/trajectory.csv", csv},
+                                                          {dir + "/steps.csv", steps_csv},
+                                                          {dir + "/run.json", j.dump(2) + "\n"}};
+  if (svg) out.emplace_back(dir + "/response.svg", *svg);
+  write_files_atomic(out);
+  if (!o.quiet) {
+    if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
+    fmt::print("  deviation from the tethered hover: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per "
+               "wingbeat (fit over wingbeats {}-{})\n",
+               growth.deviation.empty() ? 0.0 : growth.deviation.front(),
+               growth.deviation.empty() ? 0.0 : growth.deviation.back(), growth.per_wingbeat, growth.first, growth.last);
+    fmt::print("wrote {}/trajectory.csv, steps.csv, run.json{} in {:.1f} s ({} is kept: a larger --wingbeats "
+               "continues from it)\n",
+               dir, svg ? ", response.svg" : "", seconds_since(t0), ck_path);
+  }
+  return 0;
+}
+
+}  // namespace flapstab
