@@ -1,8 +1,11 @@
 // flapstab fly with [aero] model = "cfd": free flight coupled to the Navier-Stokes solver (flight/cfd_flight.hpp).
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -123,143 +126,180 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   const ns::SimulationState* hover = from_hover ? model->hover_state() : nullptr;
   const ns::CfdPlan plan = *model->plan();
   const FlightDynamics dyn(*model, c.insect, kin, {}, dofs, std::nullopt, false, c.path);
-  CfdFlight fl(c, dyn, plan);
-  // The tethered hover's cycle-mean residual: its last wingbeat's mean wrench with the weight (body at rest at O, so
-  // body axes = grid axes; the wings' mean inertial loads vanish over a wingbeat and O is the mean centre of mass).
-  Wrench residual;
-  const double weight = c.insect.total_mass() * c.insect.gravity;
-  if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
-    residual = h->cycles.back().mean;
-    Vec3 centroid;
-    const double V = fl.simulation().part_volume(0, &centroid);
-    residual.force += Vec3(0, 0, weight - plan.rho * V * c.insect.gravity);
-    residual.moment += centroid.cross(Vec3(0, 0, -plan.rho * V * c.insect.gravity));
-  }
-  if (c.flight.cfd_residual == "cancel") fl.set_offset(Wrench{-residual.force, -residual.moment});
-  const double mc = weight * c.insect.wing.mean_chord;
   const int spc = plan.steps_per_cycle;
   const long total = std::lround(wingbeats * spc);
   const int spw = std::max(1, std::min(c.flight.samples_per_wingbeat, spc));
   const int stride = std::max(1, spc / spw);
+  // With a perturbation from the hover, the reference is the unperturbed coupled flight from the same state (the
+  // CFD analogue of the periodic orbit): flown first, then the perturbed flight; the deviation is their difference.
+  const bool with_reference = from_hover && x0 != BodyStateVector::Zero();
 
-  // Resume: a checkpoint of the same case, start, degrees of freedom and perturbation continues exactly.
+  // The tethered hover's cycle-mean residual: its last wingbeat's mean wrench with the weight (body at rest at O, so
+  // body axes = grid axes; the wings' mean inertial loads vanish over a wingbeat and O is the mean centre of mass).
+  Wrench residual;
+  const double weight = c.insect.total_mass() * c.insect.gravity;
+  const double mc = weight * c.insect.wing.mean_chord;
+
   std::string pert = c.flight.cfd_residual + ";";
   for (const auto& [name, value] : c.flight.perturbation) pert += fmt::format("{}={:.17g};", name, value);
-  const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}", ns::case_hash(c.path), c.flight.start,
-                                                  dof_set_name(dofs), pert));
-  const std::string ck_path = dir + "/flight_checkpoint.h5", ck_rows = dir + "/flight_checkpoint.csv";
-  std::vector<CfdFlightStep> steps;
-  bool resumed = false;
-  if (fs::exists(ck_path) && fs::exists(ck_rows)) {
-    const ns::CheckpointReader ck(ck_path);
-    const auto it = ck.header().text.find("key");
-    if (it != ck.header().text.end() && it->second == key) {
-      const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(plan).shape());
-      BodyStateVector x;
-      Wrench held;
-      const auto& v = ck.header().values;
-      for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));
-      for (int i = 0; i < 3; ++i) held.force(i) = v.at(fmt::format("F{}", i)), held.moment(i) = v.at(fmt::format("M{}", i));
-      std::ifstream in(ck_rows);
-      std::string line;
-      std::getline(in, line);
-      while (std::getline(in, line)) {
-        if (line.empty()) continue;
-        CfdFlightStep r;
-        try {
-          r = parse_steps_row(line, T);
-        } catch (const std::exception&) {
-          throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
-        }
-        if (r.step <= s.step) steps.push_back(r);
-      }
-      fl.restore(s, x, held);
-      resumed = true;
-      if (!o.quiet)
-        fmt::print("{}: resumed from {} at step {} (t/T = {:.3f})\n", c.path, ck_path, s.step, s.time / T);
-    } else if (!o.quiet) {
-      fmt::print("{}: {} is of another case, start or perturbation: starting afresh\n", c.path, ck_path);
-    }
-  }
-  if (!resumed) {
-    fl.start(hover, x0);
-    steps.push_back(fl.current());
-  }
-  const long first = steps.front().step;
-  if (!o.quiet) {
-    fmt::print("{}: free flight of '{}' coupled to the Navier-Stokes solver, {} degrees of freedom, {} wingbeats from "
-               "the {}\n",
-               c.path, c.insect.name, dof_set_name(dofs), wingbeats,
-               from_hover ? "kept periodic hover (tethered)" : "flow at rest");
-    fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z {:+.3f} "
-               "W, M {:+.4f} W c; {}\n",
-               residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,
-               c.flight.cfd_residual == "cancel" ? "cancelled by a constant wrench ([flight] cfd_residual = \"cancel\")"
-                                                 : "kept: the insect flies with it ([flight] cfd_residual = \"keep\")");
-    fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; the body must stay in the fine box "
-               "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m\n",
-               ns::plan_grid(plan).cells(), plan.chord_cells, spc, plan.fine_lo.x(), plan.fine_hi.x(),
-               plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z());
-  }
+  const std::string case_key = ns::case_hash(c.path);
 
-  auto checkpoint = [&]() {
-    fs::create_directories(dir);
-    std::map<std::string, double> v;
-    const CfdFlightStep& cur = fl.current();
-    for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
-    for (int i = 0; i < 3; ++i) v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
-    std::string rows = steps_header();
-    for (const auto& s : steps) rows += steps_row(s, T);
-    write_file_atomic(ck_rows, rows);
-    ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}});
+  struct Flown {
+    std::vector<CfdFlightStep> steps;
+    std::string stop, checkpoint;
+    bool resumed = false;
+    double wall_s = 0;
   };
-
-  FlightResult r;
-  std::string stop;
   const double max_angle = FlightOptions{}.max_pitch_deg * M_PI / 180;
   const InterruptGuard guard;
-  const auto tr = std::chrono::steady_clock::now();
-  const long start_step = steps.back().step;
-  try {
-    while (steps.back().step - first < total) {
-      const CfdFlightStep s = fl.advance();
-      steps.push_back(s);
-      const long done = s.step - first;
-      if (std::abs(s.x(10)) > max_angle || std::abs(s.x(9)) > max_angle) {
-        stop = fmt::format("the attitude left the envelope (|theta| or |phi| > {:g} deg) at t/T = {:.3f}",
-                           max_angle * 180 / M_PI, s.time / T);
-        break;
-      }
-      if (done % spc == 0 || done == total) {
-        checkpoint();
-        if (!o.quiet) {
-          const double el = seconds_since(tr), rate = el / double(s.step - start_step);
-          fmt::print("  wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm; "
-                     "{:.0f} s, about {:.0f} s left\n",
-                     double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
-                     s.x(2) * 1e3, seconds_since(t0), rate * double(total - done));
+  bool printed = false;
+  // One coupled flight from x_init, resumable from its own checkpoint (name: "flight" or "reference").
+  auto fly = [&](const BodyStateVector& x_init, const std::string& name) {
+    Flown f;
+    CfdFlight fl(c, dyn, plan);
+    if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
+      residual = h->cycles.back().mean;
+      Vec3 centroid;
+      const double V = fl.simulation().part_volume(0, &centroid);
+      residual.force += Vec3(0, 0, weight - plan.rho * V * c.insect.gravity);
+      residual.moment += centroid.cross(Vec3(0, 0, -plan.rho * V * c.insect.gravity));
+    }
+    if (c.flight.cfd_residual == "cancel") fl.set_offset(Wrench{-residual.force, -residual.moment});
+    if (!o.quiet && !printed) {
+      printed = true;
+      fmt::print("{}: free flight of '{}' coupled to the Navier-Stokes solver, {} degrees of freedom, {} wingbeats "
+                 "from the {}{}\n",
+                 c.path, c.insect.name, dof_set_name(dofs), wingbeats,
+                 from_hover ? "kept periodic hover (tethered)" : "flow at rest",
+                 with_reference ? "; the unperturbed flight first (the reference), then the perturbed one" : "");
+      fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z "
+                 "{:+.3f} W, M {:+.4f} W c; {}\n",
+                 residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,
+                 c.flight.cfd_residual == "cancel" ? "cancelled by a constant wrench ([flight] cfd_residual = \"cancel\")"
+                                                   : "kept: the insect flies with it ([flight] cfd_residual = \"keep\")");
+      fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; the body must stay in the fine box "
+                 "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m\n",
+                 ns::plan_grid(plan).cells(), plan.chord_cells, spc, plan.fine_lo.x(), plan.fine_hi.x(),
+                 plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z());
+      std::fflush(stdout);
+    }
+    const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}|{}", case_key, c.flight.start, dof_set_name(dofs),
+                                                    name == "reference" ? std::string("reference") : pert, name));
+    const std::string ck_path = dir + "/" + name + "_checkpoint.h5", ck_rows = dir + "/" + name + "_checkpoint.csv";
+    f.checkpoint = ck_path;
+    auto& steps = f.steps;
+    if (fs::exists(ck_path) && fs::exists(ck_rows)) {
+      const ns::CheckpointReader ck(ck_path);
+      const auto it = ck.header().text.find("key");
+      if (it != ck.header().text.end() && it->second == key) {
+        const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(plan).shape());
+        BodyStateVector x;
+        Wrench held;
+        const auto& v = ck.header().values;
+        for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));
+        for (int i = 0; i < 3; ++i)
+          held.force(i) = v.at(fmt::format("F{}", i)), held.moment(i) = v.at(fmt::format("M{}", i));
+        std::ifstream in(ck_rows);
+        std::string line;
+        std::getline(in, line);
+        while (std::getline(in, line)) {
+          if (line.empty()) continue;
+          CfdFlightStep r;
+          try {
+            r = parse_steps_row(line, T);
+          } catch (const std::exception&) {
+            throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
+          }
+          if (r.step <= s.step) steps.push_back(r);
         }
-      }
-      if (const int sig = interrupt_requested(); sig != 0) {
-        checkpoint();
-        clear_interrupt();
-        throw Interrupted(sig, fmt::format("free flight stopped on {} at step {} (t/T = {:.4f}); {} is written: the "
-                                           "same command continues",
-                                           signal_name(sig), s.step, s.time / T, ck_path));
+        fl.restore(s, x, held);
+        f.resumed = true;
+        if (!o.quiet)
+          fmt::print("  {}: resumed from {} at step {} (t/T = {:.3f})\n", name, ck_path, s.step, s.time / T);
+      } else if (!o.quiet) {
+        fmt::print("  {}: {} is of another case, start or perturbation: starting afresh\n", name, ck_path);
       }
     }
-  } catch (const BodyLeftGrid& e) {
-    steps.push_back(fl.current());
-    checkpoint();
-    throw SolveError(fmt::format("{} (checkpoint {} written)", e.what(), ck_path));
-  } catch (const ns::StepFailure& e) {
-    throw SolveError(fmt::format("free flight: the flow diverged at step {} (t/T = {:.4f}): {}; the last checkpoint "
-                                 "is {}",
-                                 e.step(), e.time() / T, e.why(), ck_path));
-  }
+    if (!f.resumed) {
+      fl.start(hover, x_init);
+      steps.push_back(fl.current());
+    }
+    const long first = steps.front().step;
+    auto checkpoint = [&]() {
+      fs::create_directories(dir);
+      std::map<std::string, double> v;
+      const CfdFlightStep& cur = fl.current();
+      for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
+      for (int i = 0; i < 3; ++i)
+        v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
+      std::string rows = steps_header();
+      for (const auto& s : steps) rows += steps_row(s, T);
+      write_file_atomic(ck_rows, rows);
+      ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}});
+    };
+    const auto tr = std::chrono::steady_clock::now();
+    const long start_step = steps.back().step;
+    try {
+      while (steps.back().step - first < total) {
+        const CfdFlightStep s = fl.advance();
+        steps.push_back(s);
+        const long done = s.step - first;
+        if (std::abs(s.x(10)) > max_angle || std::abs(s.x(9)) > max_angle) {
+          f.stop = fmt::format("the attitude left the envelope (|theta| or |phi| > {:g} deg) at t/T = {:.3f}",
+                               max_angle * 180 / M_PI, s.time / T);
+          break;
+        }
+        if (done % spc == 0 || done == total) {
+          checkpoint();
+          if (!o.quiet) {
+            const double el = seconds_since(tr), rate = el / double(s.step - start_step);
+            fmt::print("  {} wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm; "
+                       "{:.0f} s, about {:.0f} s left{}\n",
+                       name, double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
+                       s.x(2) * 1e3, seconds_since(t0), rate * double(total - done),
+                       with_reference && name == "reference" ? " (then the perturbed flight)" : "");
+            std::fflush(stdout);  // progress of a long run, also when stdout is a file
+          }
+        }
+        if (const int sig = interrupt_requested(); sig != 0) {
+          checkpoint();
+          clear_interrupt();
+          throw Interrupted(sig, fmt::format("free flight stopped on {} at step {} (t/T = {:.4f}); {} is written: "
+                                             "the same command continues",
+                                             signal_name(sig), s.step, s.time / T, ck_path));
+        }
+      }
+    } catch (const BodyLeftGrid& e) {
+      checkpoint();
+      throw SolveError(fmt::format("{} ({} flight; checkpoint {} written)", e.what(), name, ck_path));
+    } catch (const ns::StepFailure& e) {
+      throw SolveError(fmt::format("free flight: the flow diverged at step {} (t/T = {:.4f}) of the {} flight: {}; "
+                                   "the last checkpoint is {}",
+                                   e.step(), e.time() / T, name, e.why(), ck_path));
+    }
+    f.wall_s = seconds_since(tr);
+    return f;
+  };
 
-  // The phase-locked samples for the trajectory and the growth estimate (the reference: the tethered hover,
-  // the body at rest at O).
+  std::optional<Flown> ref_flight;
+  if (with_reference) ref_flight = fly(BodyStateVector::Zero(), "reference");
+  const Flown main = fly(x0, "flight");
+  const std::vector<CfdFlightStep>& steps = main.steps;
+  const long first = steps.front().step;
+  const bool resumed = main.resumed;
+  const std::string ck_path = main.checkpoint;
+  FlightResult r;
+  const std::string stop = main.stop;
+
+  // The phase-locked samples for the trajectory and the growth estimate. The reference: the unperturbed coupled
+  // flight at the same step (with a perturbation from the hover), else the tethered hover (the body at rest at O).
+  std::map<long, BodyStateVector> ref_state;
+  if (ref_flight)
+    for (const auto& s : ref_flight->steps) ref_state[s.step - ref_flight->steps.front().step] = s.x;
+  auto reference_at = [&](long k) {
+    const auto it = ref_state.find(k);
+    return it == ref_state.end() ? BodyStateVector::Zero().eval() : it->second;
+  };
   for (const auto& s : steps)
     if ((s.step - first) % stride == 0) {
       FlightSample q;
@@ -272,17 +312,22 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   r.completed = stop.empty();
   r.stop_reason = stop;
   r.steps = steps.back().step - first;
-  r.wall_time_s = seconds_since(tr);
-  const ReferenceOrbit reference{[](double) { return BodyStateVector::Zero().eval(); }, BodyStateVector::Zero()};
+  r.wall_time_s = main.wall_s + (ref_flight ? ref_flight->wall_s : 0);
+  const double dt_step = T / spc;
+  const ReferenceOrbit reference{[&](double t) { return reference_at(std::lround(t / dt_step)); },
+                                 BodyStateVector::Zero()};
   const ReferenceQuantities ref = reference_quantities(c.insect, kin, c.fluid);
   const GrowthEstimate growth = wingbeat_growth(r, reference, ref, T, moving);
 
   std::string csv = "t_s,wingbeat";
   for (int i = 0; i < 12; ++i) csv += "," + state_column(i);
+  for (int i : {3, 4, 5, 6, 7, 8, 9, 10}) csv += ",d" + state_column(i);
   csv += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,power_W\n";
   for (const FlightSample& s : r.samples) {
     std::vector<double> row{s.t, s.t / T};
     for (int i = 0; i < 12; ++i) row.push_back(s.x(i));
+    const BodyStateVector d = s.x - reference.state(s.t);
+    for (int i : {3, 4, 5, 6, 7, 8, 9, 10}) row.push_back(d(i));
     for (int i = 0; i < 3; ++i) row.push_back(s.aero.force(i));
     for (int i = 0; i < 3; ++i) row.push_back(s.aero.moment(i));
     row.push_back(s.power);
@@ -334,23 +379,31 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  {"resumed", resumed},
                  {"simulation_time_s", r.wall_time_s},
                  {"deviation_per_wingbeat_nd", growth.deviation},
-                 {"deviation_note", "largest non-dimensional deviation from the tethered hover (body at rest at O) "
-                                    "within each wingbeat (velocities / U, rates c / U, angles rad) over the moving states"},
+                 {"reference", ref_flight ? "the unperturbed coupled flight from the same hover state (reference_checkpoint.*)"
+                                          : "the tethered hover (body at rest at O)"},
+                 {"deviation_note", "largest non-dimensional deviation from the reference within each wingbeat "
+                                    "(velocities / U, rates c / U, angles rad) over the moving states"},
                  {"growth_per_wingbeat", std::isfinite(growth.per_wingbeat) ? json(growth.per_wingbeat) : json(nullptr)},
                  {"growth_fit_wingbeats", {growth.first, growth.last}}};
   j["wall_time_s"] = seconds_since(t0);
   LinePlot plot;
   plot.title = c.insect.name + ": free flight coupled to the Navier-Stokes solver (" + dof_set_name(dofs) + ")";
   plot.xlabel = "time (wingbeats)";
-  plot.ylabel = "state";
-  Series th{"pitch theta (deg)", {}, {}}, zz{"z (mm, down)", {}, {}};
+  plot.ylabel = ref_flight ? "deviation from the unperturbed flight" : "state";
+  Series th{"pitch theta (deg)", {}, {}}, zz{"z (mm, down)", {}, {}}, tr{"pitch theta, unperturbed (deg)", {}, {}};
   for (const FlightSample& s : r.samples) {
+    const BodyStateVector d = s.x - reference.state(s.t);
     th.x.push_back(s.t / T);
-    th.y.push_back(s.x(10) * 180 / M_PI);
+    th.y.push_back(d(10) * 180 / M_PI);
     zz.x.push_back(s.t / T);
-    zz.y.push_back(s.x(2) * 1e3);
+    zz.y.push_back(d(2) * 1e3);
+    if (ref_flight) {
+      tr.x.push_back(s.t / T);
+      tr.y.push_back(reference.state(s.t)(10) * 180 / M_PI);
+    }
   }
   plot.series = {th, zz};
+  if (ref_flight) plot.series.push_back(tr);
   std::string why;
   const auto svg = render_svg(plot, why);
   if (!svg) j["figure_notice"] = why;
@@ -361,9 +414,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   write_files_atomic(out);
   if (!o.quiet) {
     if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
-    fmt::print("  deviation from the tethered hover: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per "
+    fmt::print("  deviation from the {}: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per "
                "wingbeat (fit over wingbeats {}-{})\n",
-               growth.deviation.empty() ? 0.0 : growth.deviation.front(),
+               ref_flight ? "unperturbed flight" : "tethered hover", growth.deviation.empty() ? 0.0 : growth.deviation.front(),
                growth.deviation.empty() ? 0.0 : growth.deviation.back(), growth.per_wingbeat, growth.first, growth.last);
     fmt::print("wrote {}/trajectory.csv, steps.csv, run.json{} in {:.1f} s ({} is kept: a larger --wingbeats "
                "continues from it)\n",

@@ -11,6 +11,7 @@
 #include <sstream>
 #include "common/case_text.hpp"
 #include "common/expect_error.hpp"
+#include "cfd/navier_stokes/plan.hpp"
 #include "core/case_file.hpp"
 #include "core/rotation.hpp"
 
@@ -385,6 +386,23 @@ TEST(Examples, ForcePartitioningDryRuns) {
     EXPECT_NE(r.err.find("force partitioning:"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("x the cost of the run without"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(dir / "fpm.csv"));
+  }
+}
+
+// The free-flight example under the Navier-Stokes model (its full run is recorded in docs/validation.md): open loop,
+// a perturbation from the hover, and a plan whose fine box leaves at least half a wing length of room beyond the
+// swept volume on every side (the body's drift over its wingbeats).
+TEST(Examples, FreeFlightCfdExamplePlansWithRoomToDrift) {
+  const Case c = load_case(source + "/data/examples/fly_hawkmoth_cfd.toml");
+  EXPECT_EQ(c.aero.model, "cfd");
+  EXPECT_EQ(c.control.type, "none");
+  EXPECT_EQ(c.flight.start, "periodic-orbit");
+  ASSERT_FALSE(c.flight.perturbation.empty());
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const double R = c.insect.wing.length;
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GE(plan.swept_lo(a) - plan.fine_lo(a), 0.5 * R) << a;
+    EXPECT_GE(plan.fine_hi(a) - plan.swept_hi(a), 0.5 * R) << a;
   }
 }
 

@@ -146,7 +146,14 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
                      "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
                  "fly", "control.feedback[0].actuator");  // no [[control.actuator]] with its limits
-  expect_refused(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "fly", "aero.model");
+  // Under the Navier-Stokes model fly is open loop: a controller or a Floquet-mode start is refused before any run.
+  expect_refused(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "fly", "control.type");
+  expect_refused(replaced(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "type = \"pitch\"",
+                                   "type = \"none\""),
+                          "theta_deg = 0.5", "mode = \"longitudinal\""),
+                 "fly", "flight.perturbation.mode");
+  expect_refused(replaced(h, "start = \"periodic-orbit\"", "start = \"periodic-orbit\"\ncfd_residual = \"drop\""), "fly",
+                 "flight.cfd_residual");
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
   expect_refused(replaced(h, "gain_max = 2.0", "gain_max = -1.0"), "control-map", "control.map.gain_max");
 }
@@ -181,6 +188,59 @@ TEST(ControlMapCli, SmallHawkmothMap) {
   std::string header;
   std::getline(csv, header);
   EXPECT_EQ(header, "gain,latency_s,latency_wingbeats,spectral_abscissa_per_s,growth_per_wingbeat,stable");
+}
+
+}  // namespace
+}  // namespace flapstab
+
+namespace flapstab {
+namespace {
+
+// fly with model = "cfd" end to end on a tiny grid (the test moth at 4 cells per mean chord, Re = 20, 120 steps per
+// wingbeat; its quasi-steady trim): the hover, the unperturbed reference flight and the perturbed one; the files and
+// their keys; and a run extended from its checkpoint (1 wingbeat, then --wingbeats 2) equal to the straight run bit
+// for bit.
+TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
+  std::string text = testing::valid_cfd_case_text();
+  text = replaced(text, "model = \"quasi-steady\"", "model = \"cfd\"");
+  text = replaced(text, "[trim]\n",
+                  "[aero.cfd]\ncells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\n"
+                  "above_R = 0\nbelow_R = 0.5\nsteps_per_cycle = 120\nbody_divisions = 6\nwing_span_stations = 12\n"
+                  "wing_chord_divisions = 4\nthreads = 1\nreynolds = 20\ncycles = 2\nmax_cycles = 2\n\n[trim]\n");
+  text += "\n[flight]\ndof = \"longitudinal\"\nwingbeats = 2\nsamples_per_wingbeat = 20\n[flight.perturbation]\n"
+          "q_deg_s = 50.0\n";
+  const std::string path = testing::write_temp("fly_cfd.toml", text);
+  const std::string a = fresh_dir("fly_cfd_a"), b = fresh_dir("fly_cfd_b");
+  const CliResult ra = flapstab("fly " + path + " -o " + a);
+  ASSERT_EQ(ra.status, 0) << ra.out << ra.err;
+  EXPECT_NE(ra.out.find("the unperturbed flight first (the reference)"), std::string::npos) << ra.out;
+  EXPECT_NE(ra.out.find("residual"), std::string::npos) << ra.out;
+  for (const char* f : {"trajectory.csv", "steps.csv", "run.json", "flight_checkpoint.h5", "reference_checkpoint.h5"})
+    EXPECT_TRUE(fs::exists(fs::path(a) / f)) << f;
+  std::ifstream in(fs::path(a) / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["flight"]["cfd_residual"], "cancel");
+  EXPECT_TRUE(j["flight"]["hover_residual"].contains("force_N"));
+  EXPECT_EQ(j["result"]["steps"], 240);
+  EXPECT_TRUE(j["result"]["completed"].get<bool>());
+  EXPECT_EQ(j["cfd"]["steps_per_wingbeat"], 120);
+  EXPECT_NE(std::string(j["result"]["reference"]).find("unperturbed"), std::string::npos);
+  const CliResult rb1 = flapstab("fly " + path + " -o " + b + " --wingbeats 1");
+  ASSERT_EQ(rb1.status, 0) << rb1.err;
+  const CliResult rb2 = flapstab("fly " + path + " -o " + b + " --wingbeats 2");
+  ASSERT_EQ(rb2.status, 0) << rb2.err;
+  EXPECT_NE(rb2.out.find("resumed from"), std::string::npos) << rb2.out;
+  EXPECT_NE(rb2.out.find("hover state reused"), std::string::npos) << rb2.out;
+  auto slurp = [](const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  const std::string ta = slurp(fs::path(a) / "trajectory.csv"), tb = slurp(fs::path(b) / "trajectory.csv");
+  EXPECT_GT(ta.size(), 1000u);
+  EXPECT_EQ(ta, tb);
+  EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
 }
 
 }  // namespace

@@ -337,9 +337,9 @@ Case tiny_case(const std::string& name, const std::string& extra = {}) {
 }
 
 // With a body too heavy to move (the body's mass and inertia x 1e15, the wings' unchanged, no gravity) the coupled
-// run is the prescribed one: the
-// parts composed with a body at rest are the prescribed parts, so the loads agree to round-off (relative 1e-9) over
-// half a wingbeat.
+// run is the prescribed one: the parts composed with a body at rest are the prescribed parts (to 1e-16 relative),
+// so the loads agree over half a wingbeat to the level at which such a difference moves the Poisson solver's
+// stopping iteration (measured 3e-10 of the largest force; tolerance 1e-8). A wrong composition differs at order one.
 TEST(CfdFlight, ImmovableBodyGivesThePrescribedRun) {
   Case c = tiny_case("cfd_flight_heavy.toml");
   c.insect.body.mass *= 1e15;
