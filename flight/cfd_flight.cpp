@@ -119,7 +119,7 @@ void CfdFlight::check_inside() const {
   const ns::ImmersedBoundary* ib = sim_->immersed();
   if (!ib) return;
   for (int i = 0; i < int(ib->parts()); ++i) {
-    const ns::BoundingBox bb = ib->bounding_box(i, sim_->time());
+    const ns::BoundingBox bb = ib->surface(i, sim_->time()).bounding_box();  // the surface's own extent
     for (int a = 0; a < 3; ++a)
       if (bb.lo(a) < plan_.fine_lo(a) || bb.hi(a) > plan_.fine_hi(a))
         throw BodyLeftGrid(fmt::format(
