@@ -19,6 +19,7 @@
 #include "trim/refine.hpp"
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/observers.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "cfd/navier_stokes/run.hpp"
 #include "core/atomic_write.hpp"
@@ -239,10 +240,32 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     };
     const auto tr = std::chrono::steady_clock::now();
     const long start_step = steps.back().step;
+    // The perturbed (or only) flight's flow fields and surfaces, as flapstab cfd writes them ([aero.cfd]
+    // fields_per_cycle, surfaces_per_cycle, field_precision; a resumed run appends to the series).
+    const bool outputs = name == "flight";
+    std::optional<ns::FieldOutput> fields;
+    std::optional<ns::SurfaceOutput> surfaces;
+    if (outputs) {
+      fields.emplace(dir + "/fields", c.aero.cfd.fields_per_cycle,
+                     c.aero.cfd.field_precision == "float32" ? ns::FieldPrecision::float32
+                                                             : ns::FieldPrecision::float64);
+      surfaces.emplace(dir + "/surfaces", c.aero.cfd.surfaces_per_cycle);
+      if (!f.resumed && c.aero.cfd.fields_per_cycle > 0) fields->write(fl.simulation());
+      if (!f.resumed && c.aero.cfd.surfaces_per_cycle > 0) surfaces->write(fl.simulation());
+    }
     try {
       while (steps.back().step - first < total) {
+        const double t_before = fl.simulation().time();
         const CfdFlightStep s = fl.advance();
         steps.push_back(s);
+        if (outputs) {
+          ns::StepReport rep;
+          rep.t_before = t_before;
+          rep.time = s.time;
+          rep.step = s.step;
+          fields->on_step(fl.simulation(), rep);
+          surfaces->on_step(fl.simulation(), rep);
+        }
         const long done = s.step - first;
         if (std::abs(s.x(10)) > max_angle || std::abs(s.x(9)) > max_angle) {
           f.stop = fmt::format("the attitude left the envelope (|theta| or |phi| > {:g} deg) at t/T = {:.3f}",

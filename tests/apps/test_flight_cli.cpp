@@ -197,7 +197,7 @@ namespace flapstab {
 namespace {
 
 // fly with model = "cfd" end to end on a tiny grid (the test moth at 4 cells per mean chord, Re = 20, 120 steps per
-// wingbeat; its quasi-steady trim): the hover, the unperturbed reference flight and the perturbed one; the files and
+// wingbeat; its quasi-steady trim, not refined on the CFD loads): the hover, the unperturbed reference flight and the perturbed one; the files and
 // their keys; and a run extended from its checkpoint (1 wingbeat, then --wingbeats 2) equal to the straight run bit
 // for bit.
 TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
@@ -206,7 +206,8 @@ TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
   text = replaced(text, "[trim]\n",
                   "[aero.cfd]\ncells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\n"
                   "above_R = 0\nbelow_R = 0.5\nsteps_per_cycle = 120\nbody_divisions = 6\nwing_span_stations = 12\n"
-                  "wing_chord_divisions = 4\nthreads = 1\nreynolds = 20\ncycles = 2\nmax_cycles = 2\n\n[trim]\n");
+                  "wing_chord_divisions = 4\nthreads = 1\nreynolds = 20\ncycles = 2\nmax_cycles = 2\ntrim_iterations = 0\n\n"
+                  "[trim]\n");
   text += "\n[flight]\ndof = \"longitudinal\"\nwingbeats = 2\nsamples_per_wingbeat = 20\n[flight.perturbation]\n"
           "q_deg_s = 50.0\n";
   const std::string path = testing::write_temp("fly_cfd.toml", text);
@@ -215,7 +216,8 @@ TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
   ASSERT_EQ(ra.status, 0) << ra.out << ra.err;
   EXPECT_NE(ra.out.find("the unperturbed flight first (the reference)"), std::string::npos) << ra.out;
   EXPECT_NE(ra.out.find("residual"), std::string::npos) << ra.out;
-  for (const char* f : {"trajectory.csv", "steps.csv", "run.json", "flight_checkpoint.h5", "reference_checkpoint.h5"})
+  for (const char* f : {"trajectory.csv", "steps.csv", "run.json", "flight_checkpoint.h5", "reference_checkpoint.h5",
+                        "fields", "surfaces"})
     EXPECT_TRUE(fs::exists(fs::path(a) / f)) << f;
   std::ifstream in(fs::path(a) / "run.json");
   const nlohmann::json j = nlohmann::json::parse(in);
