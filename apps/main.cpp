@@ -89,7 +89,10 @@ int main(int argc, char** argv) {
   flapstab::FlightCommandOptions fo;
   CLI::App* fly = app.add_subcommand(
       "fly", "nonlinear free flight of the trimmed insect from its periodic hover orbit (or from rest) with the "
-             "[flight] perturbation and the [control] feedback law: trajectory.csv, run.json, response.svg in DIR");
+             "[flight] perturbation and the [control] feedback law: trajectory.csv, run.json, response.svg in DIR. "
+             "With [aero] model = \"cfd\": coupled to the Navier-Stokes solver (open loop) from the kept CFD hover, "
+             "also steps.csv, fields, surfaces and a checkpoint per wingbeat (the same command resumes; a larger "
+             "--wingbeats extends)");
   fly->add_option("case", fo.case_path, "case file (TOML) with [flight] and optional [control] tables")
       ->required()->check(CLI::ExistingFile);
   fly->add_option("-o,--output", fo.output_dir, "output directory (default: the case's [output] directory)");
