@@ -178,6 +178,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,
                  c.flight.cfd_residual == "cancel" ? "cancelled by a constant wrench ([flight] cfd_residual = \"cancel\")"
                                                    : "kept: the insect flies with it ([flight] cfd_residual = \"keep\")");
+      const double ratio = fl.forced_fluid_mass() / fl.body_mass();
+      fmt::print("  explicit coupling: the fluid the forcing holds solid weighs {:.3g} of the insect{}\n", ratio,
+                 ratio > 0.1 ? " -- WARNING: above 0.1 the lagged loads may feed back more than the body's mass and "
+                               "the coupling can diverge (docs/theory/fluid-body-coupling.md)"
+                             : " (the lagged loads' feedback is small)");
       fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; the body must stay in the fine box "
                  "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m\n",
                  ns::plan_grid(plan).cells(), plan.chord_cells, spc, plan.fine_lo.x(), plan.fine_hi.x(),

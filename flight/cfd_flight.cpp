@@ -33,6 +33,15 @@ CfdFlight::~CfdFlight() = default;
 
 double CfdFlight::body_mass() const { return dyn_.insect().total_mass(); }
 
+double CfdFlight::forced_fluid_mass() const {
+  double v = 0;
+  for (int i = 0; i < sim_->part_count(); ++i) {
+    const double closed = sim_->part_volume(i);
+    v += closed > 0 ? closed : sim_->surface(i).area() * 2 * ns::ImmersedOptions{}.membrane_half_thickness * plan_.h_actual;
+  }
+  return rho_ * v;
+}
+
 Wrench CfdFlight::buoyancy(const BodyStateVector& x) const {
   // rho_f V g upwards (-z in the grid) on each closed part, at its centroid; body axes, about O.
   Wrench w;

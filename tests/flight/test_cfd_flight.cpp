@@ -392,6 +392,25 @@ TEST(CfdFlight, RestartContinuesBitForBit) {
   EXPECT_EQ(a.current().aero.moment.y(), r.current().aero.moment.y());
 }
 
+// The fluid the forcing holds solid (the explicit coupling's lag bound): the body's ellipsoid volume pi/6 L W H
+// and two wing slabs R c 2 (0.6 h), times the fluid density. Tolerance 5 % (the meshes' discretisation of the
+// ellipsoid and the planform). And it is far below the insect's mass (the coupling's stability condition).
+TEST(CfdFlight, ForcedFluidMassIsTheBodyAndTheWingSlabs) {
+  const Case c = tiny_case("cfd_flight_forced.toml");
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const ns::CfdModel unused(c, nullptr);
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, {}, DofSet::longitudinal, std::nullopt, false, c.path);
+  const CfdFlight fl(c, dyn, plan);
+  const Body& b = c.insect.body;
+  const double body = pi / 6 * b.length * b.width * b.height;
+  const double wings = 2 * c.insect.wing.length * c.insect.wing.mean_chord * 2 * 0.6 * plan.h_actual;
+  const double expected = plan.rho * (body + wings);
+  std::printf("  forced fluid mass %.4e kg (expected %.4e: body %.3e, wings %.3e m^3), %.4f of the insect's mass\n",
+              fl.forced_fluid_mass(), expected, body, wings, fl.forced_fluid_mass() / fl.body_mass());
+  EXPECT_NEAR(fl.forced_fluid_mass() / expected, 1.0, 0.05);
+  EXPECT_LT(fl.forced_fluid_mass() / fl.body_mass(), 0.1);
+}
+
 // A body that leaves the uniform fine box stops the run with BodyLeftGrid naming the part and the key that gives
 // more room; the state is the offending step's (a driver writes its checkpoint).
 TEST(CfdFlight, BodyLeavingTheFineBoxStopsWithAClearMessage) {
