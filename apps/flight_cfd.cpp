@@ -61,7 +61,7 @@ std::string steps_row(const CfdFlightStep& s, double T) {
   return fmt::format("{:.17g}\n", fmt::join(row, ","));
 }
 
-CfdFlightStep parse_steps_row(const std::string& line, double T) {
+CfdFlightStep parse_steps_row(const std::string& line) {
   std::vector<double> v;
   std::stringstream ss(line);
   std::string cell;
@@ -70,7 +70,6 @@ CfdFlightStep parse_steps_row(const std::string& line, double T) {
   CfdFlightStep s;
   s.time = v[0];
   s.step = long(v[1]);
-  (void)T;
   s.cfl = v[3];
   for (int i = 0; i < 12; ++i) s.x(i) = v[std::size_t(4 + i)];
   std::size_t k = 16;
@@ -189,8 +188,17 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z());
       std::fflush(stdout);
     }
-    const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}|{}", case_key, c.flight.start, dof_set_name(dofs),
-                                                    name == "reference" ? std::string("reference") : pert, name));
+    // The key names the start too: the hover's last-wingbeat mean wrench (17 digits) stands for the hover state and
+    // the kinematics it was run with, so a flight is not continued from a checkpoint of another trim or hover.
+    std::string hover_id;
+    if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
+      const Wrench& m = h->cycles.back().mean;
+      hover_id = fmt::format("{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", m.force.x(), m.force.y(), m.force.z(),
+                             m.moment.x(), m.moment.y(), m.moment.z());
+    }
+    const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}|{}|{}", case_key, c.flight.start, dof_set_name(dofs),
+                                                    name == "reference" ? std::string("reference") : pert, name,
+                                                    hover_id));
     const std::string ck_path = dir + "/" + name + "_checkpoint.h5", ck_rows = dir + "/" + name + "_checkpoint.csv";
     f.checkpoint = ck_path;
     auto& steps = f.steps;
@@ -212,7 +220,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           if (line.empty()) continue;
           CfdFlightStep r;
           try {
-            r = parse_steps_row(line, T);
+            r = parse_steps_row(line);
           } catch (const std::exception&) {
             throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
           }
