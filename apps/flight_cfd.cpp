@@ -1,4 +1,5 @@
 // flapstab fly with [aero] model = "cfd": free flight coupled to the Navier-Stokes solver (flight/cfd_flight.hpp).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cmath>
@@ -28,6 +29,7 @@
 #include "core/hash.hpp"
 #include "core/interrupt.hpp"
 #include "flight/cfd_flight.hpp"
+#include "flight/controller.hpp"
 
 namespace flapstab {
 
@@ -42,12 +44,13 @@ std::string state_column(int i) {
   return fmt::format("{}_{}", body_state_names()[std::size_t(i)], u);
 }
 
-std::string steps_header() {
+std::string steps_header(const std::vector<TrimParameterSpec>& actuators) {
   std::string h = "t_s,step,wingbeat,cfl";
-  for (int i = 0; i < 12; ++i) h += "," + state_column(i);
+  for (int i = 0; i < 12; ++i) h += fmt::format(",{}", state_column(i));
   h += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,buoyancy_X_N,buoyancy_Y_N,buoyancy_Z_N,buoyancy_L_N_m,buoyancy_M_N_m,"
-       "buoyancy_N_N_m,power_W\n";
-  return h;
+       "buoyancy_N_N_m,power_W";
+  for (const auto& a : actuators) h += fmt::format(",command_{}", a.label());
+  return h + "\n";
 }
 
 std::string steps_row(const CfdFlightStep& s, double T) {
@@ -58,15 +61,18 @@ std::string steps_row(const CfdFlightStep& s, double T) {
     for (int i = 0; i < 3; ++i) row.push_back(w->moment(i));
   }
   row.push_back(s.power);
+  for (double u : s.command) row.push_back(u);
   return fmt::format("{:.17g}\n", fmt::join(row, ","));
 }
 
-CfdFlightStep parse_steps_row(const std::string& line) {
+CfdFlightStep parse_steps_row(const std::string& line, std::size_t actuators) {
   std::vector<double> v;
   std::stringstream ss(line);
   std::string cell;
   while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
-  if (v.size() != 4 + 12 + 12 + 1) throw std::invalid_argument("row length");
+  // A row of an open-loop flight written before the command columns existed carries no commands: zeros.
+  if (v.size() == 4 + 12 + 12 + 1) v.resize(v.size() + actuators, 0.0);
+  if (v.size() != 4 + 12 + 12 + 1 + actuators) throw std::invalid_argument("row length");
   CfdFlightStep s;
   s.time = v[0];
   s.step = long(v[1]);
@@ -77,8 +83,19 @@ CfdFlightStep parse_steps_row(const std::string& line) {
     for (int i = 0; i < 3; ++i) w->force(i) = v[k++];
     for (int i = 0; i < 3; ++i) w->moment(i) = v[k++];
   }
-  s.power = v[k];
+  s.power = v[k++];
+  s.command.assign(v.begin() + std::ptrdiff_t(k), v.end());
   return s;
+}
+
+// A controller's settings as text for the flight checkpoint's key: a changed gain, latency, limit or update rule
+// does not continue another controller's flight.
+std::string controller_key(const ControllerSpec& c) {
+  std::string k = c.update == ControlUpdate::wingbeat ? "wingbeat" : "continuous";
+  for (const auto& a : c.actuators) k += fmt::format(";{}[{:.17g},{:.17g}]", a.label(), a.lower, a.upper);
+  for (const auto& t : c.terms)
+    k += fmt::format(";{}>{}:{:.17g},{:.17g},{:.17g}", t.state, t.actuator, t.gain, t.latency_s, t.filter_time_s);
+  return k;
 }
 
 }  // namespace
@@ -86,11 +103,19 @@ CfdFlightStep parse_steps_row(const std::string& line) {
 int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
                 const std::vector<int>& moving) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (c.control.type != "none")
-    throw InputError(c.path, "control.type",
-                     "closed-loop free flight coupled to the Navier-Stokes solver is not available yet (only the "
-                     "open loop: the controller's kinematics changes are not passed to the immersed wings)",
-                     "type = \"none\" with [aero] model = \"cfd\", or [aero] model = \"quasi-steady\"");
+  // The wingbeat frequency cannot be an actuator here (the immersed wings take the flow time as their kinematic
+  // time): refused before any work.
+  if (c.control.type == "pitch" && c.control.actuator == "frequency_hz")
+    throw InputError(c.path, "control.pitch.actuator",
+                     "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver (the "
+                     "immersed wings take the flow time as their kinematic time)",
+                     "a kinematic angle, e.g. \"stroke_plane_deg\"");
+  for (std::size_t i = 0; c.control.type == "state-feedback" && i < c.control.feedback.size(); ++i)
+    if (c.control.feedback[i].actuator == "frequency_hz")
+      throw InputError(c.path, fmt::format("control.feedback[{}].actuator", i),
+                       "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver "
+                       "(the immersed wings take the flow time as their kinematic time)",
+                       "a kinematic angle, e.g. \"stroke_plane_deg\"");
   if (!c.flight.mode.empty())
     throw InputError(c.path, "flight.perturbation.mode",
                      "a Floquet mode of the Navier-Stokes model is not available as a starting perturbation",
@@ -125,7 +150,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   model->run(c.insect, kin, BodyMotion{}, AeroRunOptions{});  // the hover (reused when computed before)
   const ns::SimulationState* hover = from_hover ? model->hover_state() : nullptr;
   const ns::CfdPlan plan = *model->plan();
-  const FlightDynamics dyn(*model, c.insect, kin, {}, dofs, std::nullopt, false, c.path);
+  const ControllerSpec controller = controller_from_case(c, kin);
+  const FlightDynamics dyn(*model, c.insect, kin,
+                           controller.actuators.empty() ? controller_actuators(c) : controller.actuators, dofs,
+                           std::nullopt, false, c.path);
+  const std::vector<TrimParameterSpec>& actuators = dyn.actuators();
   const int spc = plan.steps_per_cycle;
   const long total = std::lround(wingbeats * spc);
   const int spw = std::max(1, std::min(c.flight.samples_per_wingbeat, spc));
@@ -150,6 +179,23 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     bool resumed = false;
     double wall_s = 0;
   };
+  std::optional<Flown> ref_flight;
+  // What the sensors compare with at flight time s: the unperturbed flight's state (linear between its steps), or
+  // the tethered hover (the body at rest at O).
+  auto reference_state = [&](double s) -> BodyStateVector {
+    if (!ref_flight) return BodyStateVector::Zero();
+    const auto& st = ref_flight->steps;
+    const double s0 = st.front().time;
+    const auto it = std::upper_bound(st.begin(), st.end(), s, [&](double v, const CfdFlightStep& q) {
+      return v < q.time - s0;
+    });
+    if (it == st.begin()) return st.front().x;
+    if (it == st.end()) return st.back().x;
+    const CfdFlightStep& a = *(it - 1);
+    const CfdFlightStep& b = *it;
+    const double w = (s - (a.time - s0)) / (b.time - a.time);
+    return (1 - w) * a.x + w * b.x;
+  };
   const double max_angle = FlightOptions{}.max_pitch_deg * M_PI / 180;
   const InterruptGuard guard;
   bool printed = false;
@@ -157,6 +203,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   auto fly = [&](const BodyStateVector& x_init, const std::string& name) {
     Flown f;
     CfdFlight fl(c, dyn, plan);
+    if (name == "flight" && !controller.empty()) fl.set_controller(controller, reference_state);
     if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
       residual = h->cycles.back().mean;
       Vec3 centroid;
@@ -172,6 +219,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  c.path, c.insect.name, dof_set_name(dofs), wingbeats,
                  from_hover ? "kept periodic hover (tethered)" : "flow at rest",
                  with_reference ? "; the unperturbed flight first (the reference), then the perturbed one" : "");
+      if (!controller.empty())
+        fmt::print("  controller: {}; it senses the deviation from the {} (the reference flight flies open loop)\n",
+                   controller.description, with_reference ? "unperturbed flight" : "tethered hover (body at rest at O)");
       fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z "
                  "{:+.3f} W, M {:+.4f} W c; {}\n",
                  residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,
@@ -197,8 +247,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                              m.moment.x(), m.moment.y(), m.moment.z());
     }
     const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}|{}|{}", case_key, c.flight.start, dof_set_name(dofs),
-                                                    name == "reference" ? std::string("reference") : pert, name,
-                                                    hover_id));
+                                                    name == "reference" ? std::string("reference")
+                                                                        : pert + controller_key(controller),
+                                                    name, hover_id));
     const std::string ck_path = dir + "/" + name + "_checkpoint.h5", ck_rows = dir + "/" + name + "_checkpoint.csv";
     f.checkpoint = ck_path;
     auto& steps = f.steps;
@@ -220,13 +271,13 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           if (line.empty()) continue;
           CfdFlightStep r;
           try {
-            r = parse_steps_row(line);
+            r = parse_steps_row(line, actuators.size());
           } catch (const std::exception&) {
             throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
           }
           if (r.step <= s.step) steps.push_back(r);
         }
-        fl.restore(s, x, held);
+        fl.restore(s, x, held, steps);
         f.resumed = true;
         if (!o.quiet)
           fmt::print("  {}: resumed from {} at step {} (t/T = {:.3f})\n", name, ck_path, s.step, s.time / T);
@@ -246,7 +297,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
       for (int i = 0; i < 3; ++i)
         v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
-      std::string rows = steps_header();
+      std::string rows = steps_header(actuators);
       for (const auto& s : steps) rows += steps_row(s, T);
       write_file_atomic(ck_rows, rows);
       ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}});
@@ -289,10 +340,14 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           checkpoint();
           if (!o.quiet) {
             const double el = seconds_since(tr), rate = el / double(s.step - start_step);
-            fmt::print("  {} wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm; "
+            std::string cmd;
+            if (fl.closed_loop())
+              for (std::size_t a = 0; a < actuators.size() && a < s.command.size(); ++a)
+                cmd += fmt::format(", command {} {:+.3f}", actuators[a].label(), s.command[a]);
+            fmt::print("  {} wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm{}; "
                        "{:.0f} s, about {:.0f} s left{}\n",
                        name, double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
-                       s.x(2) * 1e3, seconds_since(t0), rate * double(total - done),
+                       s.x(2) * 1e3, cmd, seconds_since(t0), rate * double(total - done),
                        with_reference && name == "reference" ? " (then the perturbed flight)" : "");
             std::fflush(stdout);  // progress of a long run, also when stdout is a file
           }
@@ -317,7 +372,6 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     return f;
   };
 
-  std::optional<Flown> ref_flight;
   if (with_reference) ref_flight = fly(BodyStateVector::Zero(), "reference");
   const Flown main = fly(x0, "flight");
   const std::vector<CfdFlightStep>& steps = main.steps;
@@ -343,6 +397,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       q.x = s.x;
       q.aero = s.aero;
       q.power = s.power;
+      q.command = s.command;
       r.samples.push_back(q);
     }
   r.completed = stop.empty();
@@ -356,9 +411,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   const GrowthEstimate growth = wingbeat_growth(r, reference, ref, T, moving);
 
   std::string csv = "t_s,wingbeat";
-  for (int i = 0; i < 12; ++i) csv += "," + state_column(i);
-  for (int i : {3, 4, 5, 6, 7, 8, 9, 10}) csv += ",d" + state_column(i);
-  csv += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,power_W\n";
+  for (int i = 0; i < 12; ++i) csv += fmt::format(",{}", state_column(i));
+  for (int i : {3, 4, 5, 6, 7, 8, 9, 10}) csv += fmt::format(",d{}", state_column(i));
+  csv += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,power_W";
+  for (const auto& a : actuators) csv += fmt::format(",command_{}", a.label());
+  csv += "\n";
   for (const FlightSample& s : r.samples) {
     std::vector<double> row{s.t, s.t / T};
     for (int i = 0; i < 12; ++i) row.push_back(s.x(i));
@@ -367,9 +424,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     for (int i = 0; i < 3; ++i) row.push_back(s.aero.force(i));
     for (int i = 0; i < 3; ++i) row.push_back(s.aero.moment(i));
     row.push_back(s.power);
+    for (std::size_t a = 0; a < actuators.size(); ++a) row.push_back(a < s.command.size() ? s.command[a] : 0.0);
     csv += fmt::format("{:.10g}\n", fmt::join(row, ","));
   }
-  std::string steps_csv = steps_header();
+  std::string steps_csv = steps_header(actuators);
   for (const auto& s : steps) steps_csv += steps_row(s, T);
 
   json j = metadata_json(c, "fly");
@@ -393,7 +451,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                               "negative acts on the body as a constant wrench"}}},
                  {"coupling", "explicit: the body's equations integrated over each fluid step with the fluid wrench of "
                               "the step's start held (classical Runge-Kutta, 2 sub-steps to each stage time); grid fixed "
-                              "in space (still air); buoyancy of the closed parts added"}};
+                              "in space (still air); buoyancy of the closed parts added"},
+                 {"controller", controller.empty() ? json(nullptr)
+                                                   : json{{"description", controller.description},
+                                                          {"update", c.control.update},
+                                                          {"senses", ref_flight ? "the deviation from the unperturbed flight"
+                                                                                : "the deviation from the tethered hover"}}}};
   for (int i = 0; i < 12; ++i)
     j["flight"]["initial_state"][body_state_names()[std::size_t(i)] + "_" + body_state_units()[std::size_t(i)]] = x0(i);
   j["cfd"] = {{"cells", ns::plan_grid(plan).cells()},
@@ -440,6 +503,15 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   }
   plot.series = {th, zz};
   if (ref_flight) plot.series.push_back(tr);
+  if (!controller.empty() && !actuators.empty()) {
+    Series cm{"command: " + actuators[0].label() + " offset", {}, {}};
+    for (const FlightSample& s : r.samples)
+      if (!s.command.empty()) {
+        cm.x.push_back(s.t / T);
+        cm.y.push_back(s.command[0]);
+      }
+    plot.series.push_back(cm);
+  }
   std::string why;
   const auto svg = render_svg(plot, why);
   if (!svg) j["figure_notice"] = why;

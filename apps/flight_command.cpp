@@ -29,6 +29,27 @@ std::string output_dir(const Case& c, const std::string& given) {
   return d;
 }
 
+// Which states a DoF set moves (BodyStateVector indices), for checks and growth estimates.
+std::vector<int> moving_states(DofSet d) {
+  const std::array<bool, 6> f = free_accelerations(d);
+  std::vector<int> s;
+  for (int i = 0; i < 6; ++i)
+    if (f[std::size_t(i)]) s.push_back(3 + i);
+  if (f[3]) s.push_back(9);
+  if (f[4]) s.push_back(10);
+  if (f[5]) s.push_back(11);
+  return s;
+}
+
+void require_quasi_steady(const Case& c, const char* command) {
+  if (c.aero.model != "quasi-steady")
+    throw InputError(c.path, "aero.model",
+                     fmt::format("flapstab {} runs on the quasi-steady model (flapstab fly also on model = \"cfd\")", command),
+                     "model = \"quasi-steady\"");
+}
+
+}  // namespace
+
 // The actuators a controller drives, with their absolute limits (parameter units); the pitch controller's limit
 // is relative to trim and set by pitch_controller.
 std::vector<TrimParameterSpec> controller_actuators(const Case& c) {
@@ -52,28 +73,6 @@ ControllerSpec controller_from_case(const Case& c, const Kinematics& kin) {
   }
   return spec;
 }
-
-// Which states a DoF set moves (BodyStateVector indices), for checks and growth estimates.
-std::vector<int> moving_states(DofSet d) {
-  const std::array<bool, 6> f = free_accelerations(d);
-  std::vector<int> s;
-  for (int i = 0; i < 6; ++i)
-    if (f[std::size_t(i)]) s.push_back(3 + i);
-  if (f[3]) s.push_back(9);
-  if (f[4]) s.push_back(10);
-  if (f[5]) s.push_back(11);
-  return s;
-}
-
-void require_quasi_steady(const Case& c, const char* command) {
-  if (c.aero.model != "quasi-steady")
-    throw InputError(c.path, "aero.model",
-                     fmt::format("flapstab {} runs on the quasi-steady model (flapstab fly also on model = \"cfd\", "
-                                 "open loop)", command),
-                     "model = \"quasi-steady\"");
-}
-
-}  // namespace
 
 int run_fly(const FlightCommandOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();

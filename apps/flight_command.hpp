@@ -20,6 +20,14 @@ int run_fly(const FlightCommandOptions& o);
 // coupled to the Navier-Stokes solver; trajectory.csv, steps.csv, run.json, response.svg and a checkpoint.
 struct Case;
 enum class DofSet;
+struct ControllerSpec;
+struct Kinematics;
+struct TrimParameterSpec;
+// The case's controller ([control]) for the trimmed kinematics, validated (InputError naming the key); empty for
+// type = "none".
+ControllerSpec controller_from_case(const Case& c, const Kinematics& kin);
+// The actuators a controller drives, with their absolute limits (parameter units).
+std::vector<TrimParameterSpec> controller_actuators(const Case& c);
 int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
                 const std::vector<int>& moving);
 // flapstab control-map CASE -o DIR: control_map.json, control_map.csv, control_map.svg.

@@ -4,6 +4,10 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include "cfd/navier_stokes/insect_motion.hpp"
+#include "core/body_state.hpp"
+#include "core/errors.hpp"
 #include "core/rotation.hpp"
 
 namespace flapstab {
@@ -13,6 +17,123 @@ namespace {
 // by a small fraction of a cell per fluid step, so this error is far below the coupling's lag).
 constexpr int body_substeps = 2;
 }  // namespace
+
+// The feedback law on the sensed deviation history (cfd_flight.hpp, "Closed loop").
+class CfdFlight::Feedback {
+ public:
+  Feedback(const FlightDynamics& dyn, const ControllerSpec& c, std::function<BodyStateVector(double)> reference)
+      : spec_(c), ref_(std::move(reference)), period_(dyn.trimmed().period()) {
+    const std::size_t n = dyn.actuators().size();
+    lower_.assign(n, -1e300);
+    upper_.assign(n, 1e300);
+    for (const auto& a : c.actuators) {
+      const auto i = dyn.actuator_index(a.label());
+      if (!i) throw SolveError("free flight: actuator \"" + a.label() + "\" is not among the dynamics' actuators");
+      lower_[std::size_t(*i)] = a.lower - dyn.actuator_trim()[std::size_t(*i)];
+      upper_[std::size_t(*i)] = a.upper - dyn.actuator_trim()[std::size_t(*i)];
+    }
+    for (const auto& t : c.terms) {
+      Term term;
+      term.state = *body_state_index(t.state);
+      const auto a = dyn.actuator_index(t.actuator);
+      if (!a) throw SolveError("free flight: actuator \"" + t.actuator + "\" is not among the dynamics' actuators");
+      term.actuator = *a;
+      term.spec = t;
+      if (t.filter_time_s > 0) term.filter = n_filters_++;
+      terms_.push_back(term);
+    }
+    n_act_ = n;
+  }
+
+  // The flight starts at time t0 in state x0.
+  void start(double t0, const BodyStateVector& x0) {
+    t0_ = t0;
+    hs_.clear();
+    hd_.clear();
+    hs_.push_back(0);
+    hd_.push_back(x0 - ref_(0));
+    filt_.assign(std::size_t(n_filters_), 0.0);
+    raw_last_.assign(std::size_t(n_filters_), 0.0);
+    for (const Term& t : terms_)
+      if (t.filter >= 0) filt_[std::size_t(t.filter)] = raw_last_[std::size_t(t.filter)] = raw(t, 0, 0, hd_.back());
+    held_ = spec_.update == ControlUpdate::wingbeat ? law(0, hd_.back()) : std::vector<double>(n_act_, 0.0);
+  }
+  // A fluid step accepted at time t with the body at x.
+  void accept(double t, const BodyStateVector& x) {
+    const double s = t - t0_;
+    const BodyStateVector d = x - ref_(s);
+    std::vector<double> f(filt_.size()), r(filt_.size());
+    for (const Term& term : terms_)
+      if (term.filter >= 0) {
+        f[std::size_t(term.filter)] = filtered(term, s, d);
+        r[std::size_t(term.filter)] = raw(term, s, s, d);
+      }
+    hs_.push_back(s);
+    hd_.push_back(d);
+    filt_ = std::move(f);
+    raw_last_ = std::move(r);
+    if (spec_.update == ControlUpdate::wingbeat) {
+      const double k = std::round(s / period_);
+      if (k > 0 && std::abs(s - k * period_) < 1e-9 * period_) held_ = law(s, d);
+    }
+  }
+  std::vector<double> command(double t, const BodyStateVector& x) const {
+    if (spec_.update == ControlUpdate::wingbeat) return held_;
+    const double s = t - t0_;
+    return law(s, x - ref_(s));
+  }
+
+ private:
+  struct Term {
+    int state = 0, actuator = 0, filter = -1;
+    FeedbackTerm spec;
+  };
+  // The deviation at flight time s: zero before the start, the stored history up to its newest point, then linear
+  // to the current deviation d_now at s_now.
+  BodyStateVector deviation(double s, double s_now, const BodyStateVector& d_now) const {
+    if (s < 0) return BodyStateVector::Zero();
+    if (s >= hs_.back()) {
+      const double span = s_now - hs_.back();
+      if (!(span > 0)) return hd_.back();
+      const double w = std::min(1.0, (s - hs_.back()) / span);
+      return (1 - w) * hd_.back() + w * d_now;
+    }
+    const std::size_t j = std::size_t(std::upper_bound(hs_.begin(), hs_.end(), s) - hs_.begin());  // hs_[j-1] <= s
+    if (j == 0) return hd_.front();
+    const double w = (s - hs_[j - 1]) / (hs_[j] - hs_[j - 1]);
+    return (1 - w) * hd_[j - 1] + w * hd_[j];
+  }
+  double raw(const Term& t, double s, double s_now, const BodyStateVector& d_now) const {
+    return deviation(s - t.spec.latency_s, s_now, d_now)(t.state);
+  }
+  // The filter state at s inside the current step: T f' = u - f exactly for u linear from its value at the newest
+  // stored point to its value now.
+  double filtered(const Term& t, double s, const BodyStateVector& d_now) const {
+    const double h = s - hs_.back(), T = t.spec.filter_time_s;
+    const double f0 = filt_[std::size_t(t.filter)], a = raw_last_[std::size_t(t.filter)];
+    if (!(h > 0)) return f0;
+    const double b = raw(t, s, s, d_now), E = std::exp(-h / T);
+    return E * f0 + (1 - E) * a + (b - a) * (1 - T * (1 - E) / h);
+  }
+  std::vector<double> law(double s, const BodyStateVector& d_now) const {
+    std::vector<double> u(n_act_, 0.0);
+    for (const Term& term : terms_) {
+      const double sig = term.filter >= 0 ? filtered(term, s, d_now) : raw(term, s, s, d_now);
+      u[std::size_t(term.actuator)] -= term.spec.gain * sig;
+    }
+    for (std::size_t i = 0; i < u.size(); ++i) u[i] = std::clamp(u[i], lower_[i], upper_[i]);
+    return u;
+  }
+  ControllerSpec spec_;
+  std::function<BodyStateVector(double)> ref_;
+  double period_ = 0, t0_ = 0;
+  std::vector<Term> terms_;
+  int n_filters_ = 0;
+  std::size_t n_act_ = 0;
+  std::vector<double> lower_, upper_, held_, filt_, raw_last_;
+  std::vector<double> hs_;
+  std::vector<BodyStateVector> hd_;
+};
 
 CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan)
     : dyn_(dynamics), plan_(plan) {
@@ -57,7 +178,8 @@ Wrench CfdFlight::buoyancy(const BodyStateVector& x) const {
 
 BodyStateVector CfdFlight::rhs(double t, const BodyStateVector& x, const Wrench& held) const {
   const Wrench b = buoyancy(x);
-  return dyn_.derivative(t, x, {}, Wrench{held.force + b.force + offset_.force, held.moment + b.moment + offset_.moment})
+  return dyn_.derivative(t, x, command(t, x),
+                         Wrench{held.force + b.force + offset_.force, held.moment + b.moment + offset_.moment})
       .dx;
 }
 
@@ -70,8 +192,31 @@ std::vector<ns::PartState> CfdFlight::parts_at(double t) const {
   const BodyStateVector x = body_at(t);
   const ns::BodyFrame b = ns::body_frame(x, rhs(t, x, base_aero_));
   std::vector<ns::PartState> out;
-  for (const ns::PartState& rel : sim_->prescribed_parts(t)) out.push_back(ns::part_in_grid(b, rel));
+  for (const ns::PartState& rel : relative_parts(t, command(t, x))) out.push_back(ns::part_in_grid(b, rel));
   return out;
+}
+
+std::vector<ns::PartState> CfdFlight::relative_parts(double t, const std::vector<double>& cmd) const {
+  if (std::none_of(cmd.begin(), cmd.end(), [](double v) { return v != 0; })) return sim_->prescribed_parts(t);
+  const Kinematics kin = dyn_.kinematics(cmd);
+  const Configuration config(dyn_.insect(), kin, dyn_.configuration().reference_point());
+  return ns::InsectMotion(config, BodyMotion{}).parts(t);
+}
+
+void CfdFlight::set_controller(const ControllerSpec& controller, std::function<BodyStateVector(double)> reference) {
+  for (const auto& t : controller.terms)
+    if (t.actuator == "frequency_hz")
+      throw InputError("", "control", "the wingbeat frequency as an actuator of free flight coupled to the "
+                       "Navier-Stokes solver (the immersed wings take the flow time as their kinematic time)",
+                       "a kinematic angle (e.g. stroke_plane_deg) as the actuator");
+  feedback_ = controller.empty() ? nullptr : std::make_unique<Feedback>(dyn_, controller, std::move(reference));
+}
+
+bool CfdFlight::closed_loop() const { return feedback_ != nullptr; }
+
+std::vector<double> CfdFlight::command(double t, const BodyStateVector& x) const {
+  if (!feedback_) return std::vector<double>(dyn_.actuators().size(), 0.0);
+  return feedback_->command(t, x);
 }
 
 CfdFlightStep CfdFlight::observe(long step, double cfl) const {
@@ -85,6 +230,7 @@ CfdFlightStep CfdFlight::observe(long step, double cfl) const {
   s.aero = ns::wrench_on_body(ns::body_frame(x_, BodyStateVector::Zero()), total.force, total.moment);
   s.buoyancy = buoyancy(x_);
   s.power = row.wing_power;
+  s.command = command(s.time, x_);
   return s;
 }
 
@@ -94,6 +240,7 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
   base_time_ = sim_->time();
   base_x_ = x_;
   base_aero_ = Wrench{};
+  if (feedback_) feedback_->start(base_time_, x_);
   // Set once: the source reads the members, which each step moves on (re-attaching would re-mark the flags).
   sim_->set_part_source([this](double t) { return parts_at(t); });
   cur_ = observe(sim_->step(), 0);
@@ -101,7 +248,14 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
   check_inside();
 }
 
-void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero) {
+void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
+                        const std::vector<CfdFlightStep>& past) {
+  if (feedback_) {
+    if (past.empty() || past.back().time != flow.time)
+      throw SolveError("free flight: a closed-loop flight continues only with its steps up to the restored one");
+    feedback_->start(past.front().time, dyn_.held(past.front().x));
+    for (std::size_t i = 1; i < past.size(); ++i) feedback_->accept(past[i].time, past[i].x);
+  }
   x_ = dyn_.held(x);
   base_time_ = flow.time;
   base_x_ = x_;
@@ -119,6 +273,7 @@ CfdFlightStep CfdFlight::advance() {
   const ns::StepReport r = sim_->advance();
   x_ = body_at(r.time);
   if (!x_.allFinite()) throw SolveError(fmt::format("free flight: the body state is not finite at t = {:.6g} s", r.time));
+  if (feedback_) feedback_->accept(r.time, x_);
   cur_ = observe(r.step, r.cfl);
   check_inside();
   return cur_;

@@ -16,6 +16,16 @@
 //    forced_fluid_mass()); a sphere has m_a / m = rho_f / (2 rho_s) in potential flow.
 //  - Gravity acts on the insect's mass (its equations), buoyancy rho_f V g on its closed parts (the solver's
 //    pressure carries no hydrostatics), at their centroids.
+//  - Closed loop (set_controller): the controller's terms (flight/controller.hpp) sense the deviation of the body
+//    state from a reference trajectory (the unperturbed coupled flight, or the tethered hover) after their latency;
+//    the deviation's history is kept at the fluid steps and interpolated linearly between them (a latency shorter
+//    than a step interpolates between the last step and the current state), a sensor filter advances exactly for
+//    an input linear over the step. The command moves the wings: the parts relative to the body are those of the
+//    commanded kinematics with O held where the trimmed kinematics put it (as in flight/dynamics.hpp), at every
+//    Runge-Kutta stage, and the body's equations carry the moved wing mass. As in the quasi-steady free flight the
+//    command's own rate of change is not added to the wings' velocities; a command sampled once per wingbeat
+//    (update = "wingbeat") jumps at the wingbeat's start and the wings jump with it. The wingbeat frequency is not
+//    an actuator here (the immersed wings take the flow time as their kinematic time).
 #pragma once
 #include <functional>
 #include <memory>
@@ -23,6 +33,7 @@
 #include <vector>
 #include "cfd/navier_stokes/free_body.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
+#include "flight/controller.hpp"
 #include "flight/dynamics.hpp"
 #include "flight/free_flight.hpp"
 
@@ -43,6 +54,7 @@ struct CfdFlightStep {
   Wrench aero;       // fluid wrench at `time`, body axes, about O (pressure and viscous)
   Wrench buoyancy;   // of the closed parts, body axes, about O
   double power = 0;  // W: the parts' rate of work on the air (grid frame)
+  std::vector<double> command;  // actuator offsets from trim (parameter units; one per dynamics actuator)
 };
 
 class CfdFlight {
@@ -73,9 +85,21 @@ class CfdFlight {
   // Exact continuation: the flow state, the body state and the fluid wrench held over the next step (the
   // current step's aero).
   ns::SimulationState flow_state() const { return sim_->state(); }
-  void restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero);
+  // past: the flight's steps from its start to the restored one (their times and states; only with a controller:
+  // its sensed history and filter states are replayed from them, so the continuation is exact).
+  void restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
+               const std::vector<CfdFlightStep>& past = {});
+
+  // Closes the loop (before start or restore): the controller's actuators must be the dynamics' (in its order or
+  // not); reference(s) is the body state the sensors compare with at flight time s = t - t_start (s >= 0; before
+  // the start the sensors see no deviation). Throws InputError for the frequency as an actuator.
+  void set_controller(const ControllerSpec& controller, std::function<BodyStateVector(double)> reference);
+  bool closed_loop() const;
+  // The command at time t with the body at x (actuator offsets from trim, parameter units).
+  std::vector<double> command(double t, const BodyStateVector& x) const;
 
  private:
+  class Feedback;
   CfdFlightStep observe(long step, double cfl) const;
   Wrench buoyancy(const BodyStateVector& x) const;
   BodyStateVector rhs(double t, const BodyStateVector& x, const Wrench& held) const;
@@ -96,6 +120,9 @@ class CfdFlight {
   BodyStateVector base_x_ = BodyStateVector::Zero();
   Wrench base_aero_;
   Wrench offset_;
+  std::unique_ptr<Feedback> feedback_;
+  // The wing parts relative to the body for a command (the prescribed ones without).
+  std::vector<ns::PartState> relative_parts(double t, const std::vector<double>& command) const;
 };
 
 }  // namespace flapstab

@@ -146,8 +146,11 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
                      "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
                  "fly", "control.feedback[0].actuator");  // no [[control.actuator]] with its limits
-  // Under the Navier-Stokes model fly is open loop: a controller or a Floquet-mode start is refused before any run.
-  expect_refused(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "fly", "control.type");
+  // Under the Navier-Stokes model the wingbeat frequency is no actuator and a Floquet-mode start is not available:
+  // refused before any run.
+  expect_refused(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""),
+                          "actuator = \"stroke_plane_deg\"", "actuator = \"frequency_hz\""),
+                 "fly", "control.pitch.actuator");
   expect_refused(replaced(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "type = \"pitch\"",
                                    "type = \"none\""),
                           "theta_deg = 0.5", "mode = \"longitudinal\""),
@@ -197,10 +200,10 @@ namespace flapstab {
 namespace {
 
 // fly with model = "cfd" end to end on a tiny grid (the test moth at 4 cells per mean chord, Re = 20, 120 steps per
-// wingbeat; its quasi-steady trim, not refined on the CFD loads): the hover, the unperturbed reference flight and the perturbed one; the files and
-// their keys; and a run extended from its checkpoint (1 wingbeat, then --wingbeats 2) equal to the straight run bit
-// for bit.
-TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
+// wingbeat; its quasi-steady trim, not refined on the CFD loads), closed loop: the hover, the unperturbed reference
+// flight (open loop) and the perturbed one under the pitch controller; the files and their keys; and a run extended
+// from its checkpoint (1 wingbeat, then --wingbeats 2) equal to the straight run bit for bit.
+TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   std::string text = testing::valid_cfd_case_text();
   text = replaced(text, "model = \"quasi-steady\"", "model = \"cfd\"");
   text = replaced(text, "[trim]\n",
@@ -210,6 +213,10 @@ TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
                   "[trim]\n");
   text += "\n[flight]\ndof = \"longitudinal\"\nwingbeats = 2\nsamples_per_wingbeat = 20\n[flight.perturbation]\n"
           "q_deg_s = 50.0\n";
+  // Closed loop: the pitch controller on the stroke plane, its latency not a whole number of steps (T / 120 =
+  // 0.3205 ms at 26 Hz; 5 ms = 15.6 steps), so a resumed run must rebuild the interpolated sensed history.
+  text += "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"stroke_plane_deg\"\npitch_gain = 2.0\n"
+          "rate_gain_s = 0.05\npitch_latency_s = 0.005\nrate_latency_s = 0.005\nlimit_deg = 20\n";
   const std::string path = testing::write_temp("fly_cfd.toml", text);
   const std::string a = fresh_dir("fly_cfd_a"), b = fresh_dir("fly_cfd_b");
   const CliResult ra = flapstab("fly " + path + " -o " + a);
@@ -227,6 +234,22 @@ TEST(FlyCli, CfdOpenLoopWritesItsFilesAndResumesExactly) {
   EXPECT_TRUE(j["result"]["completed"].get<bool>());
   EXPECT_EQ(j["cfd"]["steps_per_wingbeat"], 120);
   EXPECT_NE(std::string(j["result"]["reference"]).find("unperturbed"), std::string::npos);
+  EXPECT_NE(ra.out.find("controller: pitch feedback on stroke_plane_deg"), std::string::npos) << ra.out;
+  EXPECT_NE(std::string(j["flight"]["controller"]["senses"]).find("unperturbed flight"), std::string::npos);
+  {  // the command column: zero until the first delayed sample of the perturbation arrives, then moving
+    std::ifstream st(fs::path(a) / "steps.csv");
+    std::string header, line;
+    std::getline(st, header);
+    EXPECT_NE(header.find(",command_stroke_plane_deg"), std::string::npos) << header;
+    double first = 0, largest = 0;
+    for (int row = 0; std::getline(st, line); ++row) {
+      const double u = std::stod(line.substr(line.rfind(',') + 1));
+      if (row <= 15) first = std::max(first, std::abs(u));
+      largest = std::max(largest, std::abs(u));
+    }
+    EXPECT_EQ(first, 0.0);  // steps 0-15 sense before the start (15.6 steps of latency)
+    EXPECT_GT(largest, 0.1);  // deg: 50 deg/s of pitch rate x 0.05 s = 2.5 deg at the start
+  }
   const CliResult rb1 = flapstab("fly " + path + " -o " + b + " --wingbeats 1");
   ASSERT_EQ(rb1.status, 0) << rb1.err;
   const CliResult rb2 = flapstab("fly " + path + " -o " + b + " --wingbeats 2");

@@ -441,4 +441,150 @@ TEST(CfdFlight, BodyLeavingTheFineBoxStopsWithAClearMessage) {
   EXPECT_NE(what.find("left the grid's uniform fine box"), std::string::npos);
 }
 
+// Closed loop: a term's command is minus its gain times the sensed deviation a latency ago, the history linear
+// between the fluid steps and zero before the start (the body state minus the reference, here the tethered hover).
+// Latency 2.5 steps on theta: the mean of the deviations 2 and 3 steps back; no latency on q: the current state.
+// Exact up to rounding of the interpolation weights (tolerance 1e-12 of the command's scale).
+TEST(CfdFlight, DelayedCommandIsTheDeviationALatencyAgo) {
+  const Case c = tiny_case("cfd_flight_delay.toml");
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const ns::CfdModel unused(c, nullptr);
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
+                           DofSet::longitudinal, std::nullopt, false, c.path);
+  const double dt = c.kinematics.period() / 60, g_theta = 30, g_q = 0.2;  // deg per rad, deg per rad/s
+  ControllerSpec ctrl;
+  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+  ctrl.terms = {{"theta", "stroke_plane_deg", g_theta, 2.5 * dt, 0}, {"q", "stroke_plane_deg", g_q, 0, 0}};
+  BodyStateVector x0 = BodyStateVector::Zero();
+  x0(7) = 2.0;   // q, rad/s
+  x0(10) = 0.01;  // theta, rad
+  CfdFlight fl(c, dyn, plan);
+  fl.set_controller(ctrl, [](double) { return BodyStateVector::Zero().eval(); });
+  fl.start(nullptr, x0);
+  std::vector<CfdFlightStep> st{fl.current()};
+  for (int k = 0; k < 12; ++k) st.push_back(fl.advance());
+  double worst = 0;
+  for (std::size_t n = 0; n < st.size(); ++n) {
+    const double sensed = n < 3 ? 0.0 : 0.5 * (st[n - 3].x(10) + st[n - 2].x(10));
+    const double expected = -g_theta * sensed - g_q * st[n].x(7);
+    ASSERT_EQ(st[n].command.size(), 1u);
+    worst = std::max(worst, std::abs(st[n].command[0] - expected));
+  }
+  std::printf("  delayed command: largest error %.2e deg (command at step 0 %.4f deg, step 12 %.4f deg)\n", worst,
+              st[0].command[0], st.back().command[0]);
+  EXPECT_LT(worst, 1e-12 * (g_theta * 0.01 + g_q * 2.0));
+  EXPECT_GT(std::abs(st.back().x(10) - st[0].x(10)), 1e-4);  // theta did change
+}
+
+// Sampled once per wingbeat (update = "wingbeat"): the command holds over each wingbeat and is the law's value at
+// the wingbeat's start (latency 2 steps on theta, none on q).
+TEST(CfdFlight, WingbeatUpdateHoldsTheStartOfWingbeatCommand) {
+  const Case c = tiny_case("cfd_flight_hold.toml");
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const ns::CfdModel unused(c, nullptr);
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
+                           DofSet::longitudinal, std::nullopt, false, c.path);
+  const double dt = c.kinematics.period() / 60;
+  ControllerSpec ctrl;
+  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+  ctrl.terms = {{"theta", "stroke_plane_deg", 30, 2 * dt, 0}, {"q", "stroke_plane_deg", 0.2, 0, 0}};
+  ctrl.update = ControlUpdate::wingbeat;
+  BodyStateVector x0 = BodyStateVector::Zero();
+  x0(7) = 2.0;
+  CfdFlight fl(c, dyn, plan);
+  fl.set_controller(ctrl, [](double) { return BodyStateVector::Zero().eval(); });
+  fl.start(nullptr, x0);
+  std::vector<CfdFlightStep> st{fl.current()};
+  for (int k = 0; k < 63; ++k) st.push_back(fl.advance());
+  for (std::size_t n = 1; n < 60; ++n) EXPECT_EQ(st[n].command[0], st[0].command[0]) << n;
+  EXPECT_NEAR(st[0].command[0], -0.2 * 2.0, 1e-15);
+  const double at60 = -30 * st[58].x(10) - 0.2 * st[60].x(7);
+  std::printf("  held command: %.6f deg over wingbeat 1, %.6f deg from wingbeat 2 (law %.6f)\n", st[0].command[0],
+              st[60].command[0], at60);
+  EXPECT_NEAR(st[60].command[0], at60, 1e-12 * std::abs(at60));
+  for (std::size_t n = 61; n < st.size(); ++n) EXPECT_EQ(st[n].command[0], st[60].command[0]) << n;
+  EXPECT_NE(st[60].command[0], st[0].command[0]);
+}
+
+// The command moves the immersed wings: with the body held (mass x 1e15, no gravity) and a constant command delta
+// on the stroke plane (a constant sensed deviation against a shifted reference), each wing's pose in the grid is the
+// trimmed one turned by rot_y(delta) about its hinge (the stroke plane's rotation, core/configuration), the hinge
+// and the body unmoved (O stays where the trimmed kinematics put it); its angular velocity turns with it.
+TEST(CfdFlight, CommandTiltsTheImmersedStrokePlane) {
+  Case c = tiny_case("cfd_flight_tilt.toml");
+  c.insect.body.mass *= 1e15;
+  c.insect.body.inertia *= 1e15;
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const ns::CfdModel unused(c, nullptr);
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")}, DofSet::six_dof,
+                           0.0, false, c.path);
+  ControllerSpec ctrl;
+  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+  ctrl.terms = {{"theta", "stroke_plane_deg", 100, 0, 0}};  // deg per rad
+  BodyStateVector shifted = BodyStateVector::Zero();
+  shifted(10) = -0.05;  // the sensed deviation +0.05 rad: command -5 deg
+  CfdFlight fl(c, dyn, plan);
+  fl.set_controller(ctrl, [shifted](double) { return shifted; });
+  fl.start(nullptr, BodyStateVector::Zero());
+  const Mat3 tilt = rot_y(-5 * pi / 180);
+  double worst_r = 0, worst_t = 0, worst_w = 0;
+  for (int k = 0; k < 6; ++k) {
+    const CfdFlightStep s = fl.advance();
+    EXPECT_NEAR(s.command[0], -5.0, 1e-9);
+    const auto now = fl.simulation().part_states(), trim = fl.simulation().prescribed_parts(s.time);
+    ASSERT_EQ(now.size(), trim.size());
+    for (std::size_t i = 0; i < now.size(); ++i) {
+      const Mat3 expected = i == 0 ? Mat3::Identity() : tilt;
+      worst_r = std::max(worst_r, (now[i].pose.rotation * trim[i].pose.rotation.transpose() - expected).norm());
+      worst_t = std::max(worst_t, (now[i].pose.translation - trim[i].pose.translation).norm());
+      worst_w = std::max(worst_w, (now[i].velocity.omega - expected * trim[i].velocity.omega).norm());
+    }
+  }
+  std::printf("  tilted stroke plane: rotation %.1e, hinge %.1e m, angular velocity %.1e rad/s off\n", worst_r,
+              worst_t, worst_w);
+  EXPECT_LT(worst_r, 1e-10);
+  EXPECT_LT(worst_t, 1e-10 * c.insect.wing.length);
+  EXPECT_LT(worst_w, 1e-8);
+}
+
+// A closed-loop flight continues bit for bit from a checkpoint: the sensed history (a latency of 3.4 steps) and a
+// sensor filter are rebuilt from the flight's past steps.
+TEST(CfdFlight, ClosedLoopRestartContinuesBitForBit) {
+  const Case c = tiny_case("cfd_flight_restart_cl.toml");
+  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+  const ns::CfdModel unused(c, nullptr);
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
+                           DofSet::longitudinal, std::nullopt, false, c.path);
+  const double dt = c.kinematics.period() / 60;
+  ControllerSpec ctrl;
+  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+  ctrl.terms = {{"theta", "stroke_plane_deg", 30, 3.4 * dt, 2 * dt}, {"q", "stroke_plane_deg", 0.2, 3.4 * dt, 0}};
+  const auto ref = [](double) { return BodyStateVector::Zero().eval(); };
+  BodyStateVector x0 = BodyStateVector::Zero();
+  x0(7) = 2.0;
+  CfdFlight a(c, dyn, plan);
+  a.set_controller(ctrl, ref);
+  a.start(nullptr, x0);
+  for (int k = 0; k < 20; ++k) a.advance();
+  CfdFlight b(c, dyn, plan);
+  b.set_controller(ctrl, ref);
+  b.start(nullptr, x0);
+  std::vector<CfdFlightStep> past{b.current()};
+  for (int k = 0; k < 10; ++k) past.push_back(b.advance());
+  CfdFlight r(c, dyn, plan);
+  r.set_controller(ctrl, ref);
+  r.restore(b.flow_state(), b.current().x, b.current().aero, past);
+  for (int k = 0; k < 10; ++k) r.advance();
+  std::printf("  closed-loop restart: theta %.17g straight, %.17g continued; command %.17g, %.17g\n",
+              a.current().x(10), r.current().x(10), a.current().command[0], r.current().command[0]);
+  EXPECT_GT(std::abs(a.current().command[0]), 1e-3);  // the loop did act
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(a.current().x(i), r.current().x(i)) << i;
+  EXPECT_EQ(a.current().command[0], r.current().command[0]);
+  EXPECT_EQ(a.current().aero.force.z(), r.current().aero.force.z());
+  // Without its past a closed-loop flight cannot continue.
+  CfdFlight q(c, dyn, plan);
+  q.set_controller(ctrl, ref);
+  EXPECT_THROW(q.restore(b.flow_state(), b.current().x, b.current().aero), SolveError);
+}
+
 }  // namespace
