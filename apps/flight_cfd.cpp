@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <complex>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -30,6 +31,7 @@
 #include "core/interrupt.hpp"
 #include "flight/cfd_flight.hpp"
 #include "flight/controller.hpp"
+#include "flight/hover_model.hpp"
 
 namespace flapstab {
 
@@ -116,10 +118,6 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                        "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver "
                        "(the immersed wings take the flow time as their kinematic time)",
                        "a kinematic angle, e.g. \"stroke_plane_deg\"");
-  if (!c.flight.mode.empty())
-    throw InputError(c.path, "flight.perturbation.mode",
-                     "a Floquet mode of the Navier-Stokes model is not available as a starting perturbation",
-                     "the perturbation as state values (u_m_s, q_deg_s, theta_deg, ...)");
   // The kinematics: the quasi-steady trim refined on the CFD cycle means ([aero.cfd] trim_iterations), as the CFD
   // stability chain takes them (flapstab trim-hover / analyze with model = "cfd"), on the same grid.
   Case qc = c;
@@ -143,6 +141,13 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   const double T = kin.period();
   BodyStateVector x0 = BodyStateVector::Zero();
   for (const auto& [name, value] : c.flight.perturbation) x0(*body_state_index(name)) += value;
+  // A Floquet-mode perturbation is the quasi-steady model's mode (its periodic orbit at phase 0, where the kept
+  // hover state starts too): the CFD model's own Floquet analysis needs its derivative table (flapstab floquet).
+  std::complex<double> mode_multiplier = 0;
+  if (!c.flight.mode.empty()) {
+    const HoverModel h = hover_model(qc, *qs, {});
+    x0 += floquet_mode_perturbation(h, c.flight.mode, c.flight.mode_amplitude, &mode_multiplier);
+  }
   const bool from_hover = c.flight.start == "periodic-orbit";
 
   // The flow to start from: the kept periodic hover (tethered, reused from DIR/cfd_cache when it was computed
@@ -171,6 +176,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
 
   std::string pert = c.flight.cfd_residual + ";";
   for (const auto& [name, value] : c.flight.perturbation) pert += fmt::format("{}={:.17g};", name, value);
+  if (!c.flight.mode.empty()) pert += fmt::format("mode={}:{:.17g};", c.flight.mode, c.flight.mode_amplitude);
   const std::string case_key = ns::case_hash(c.path);
 
   struct Flown {
@@ -219,6 +225,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  c.path, c.insect.name, dof_set_name(dofs), wingbeats,
                  from_hover ? "kept periodic hover (tethered)" : "flow at rest",
                  with_reference ? "; the unperturbed flight first (the reference), then the perturbed one" : "");
+      if (!c.flight.mode.empty())
+        fmt::print("  perturbation along the quasi-steady model's {} Floquet mode (|mu| = {:.4f} per wingbeat), "
+                   "amplitude {}\n",
+                   c.flight.mode, std::abs(mode_multiplier), c.flight.mode_amplitude);
       if (!controller.empty())
         fmt::print("  controller: {}; it senses the deviation from the {} (the reference flight flies open loop)\n",
                    controller.description, with_reference ? "unperturbed flight" : "tethered hover (body at rest at O)");
@@ -457,6 +467,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                                           {"update", c.control.update},
                                                           {"senses", ref_flight ? "the deviation from the unperturbed flight"
                                                                                 : "the deviation from the tethered hover"}}}};
+  if (!c.flight.mode.empty()) {
+    j["flight"]["mode"] = c.flight.mode;
+    j["flight"]["mode_amplitude_nd"] = c.flight.mode_amplitude;
+    j["flight"]["mode_multiplier"] = {mode_multiplier.real(), mode_multiplier.imag()};
+    j["flight"]["mode_model"] = "quasi-steady (its cyclic trim's Floquet analysis)";
+  }
   for (int i = 0; i < 12; ++i)
     j["flight"]["initial_state"][body_state_names()[std::size_t(i)] + "_" + body_state_units()[std::size_t(i)]] = x0(i);
   j["cfd"] = {{"cells", ns::plan_grid(plan).cells()},

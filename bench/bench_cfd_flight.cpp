@@ -3,27 +3,42 @@
 // (data/cases/hawkmoth_cfd.toml, 8 cells per mean chord, 400 steps per wingbeat), started from rest; after 10 warm-up
 // steps each, the two simulations advance in turn (A, B, A, B, ...) so that the machine's load falls on both alike.
 // Counters: ns per cell step of each, their ratio (coupled / prescribed), and the extra seconds per coupled step.
+// The closed-loop variant flies under a pitch controller on the stroke plane whose rate term has no latency, so
+// that the commanded kinematics (a Configuration per evaluation) are built at every stage of every step.
 #include <benchmark/benchmark.h>
 #include <chrono>
 #include <omp.h>
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "flight/cfd_flight.hpp"
+#include "flight/controller.hpp"
 
 namespace {
 
 using namespace flapstab;
 
-void BM_CoupledAgainstPrescribedHawkmothStep(benchmark::State& state) {
+void coupled_against_prescribed(benchmark::State& state, bool closed_loop) {
   Case c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/hawkmoth_cfd.toml");
   c.aero.cfd.threads = int(state.range(0));
   const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
   const ns::CfdModel unused(c, nullptr);
-  const FlightDynamics dyn(unused, c.insect, c.kinematics, {}, DofSet::longitudinal, std::nullopt, false, c.path);
+  std::vector<TrimParameterSpec> actuators;
+  if (closed_loop) actuators.push_back(unbounded_parameter("stroke_plane_deg"));
+  const FlightDynamics dyn(unused, c.insect, c.kinematics, actuators, DofSet::longitudinal, std::nullopt, false,
+                           c.path);
   ns::Simulation prescribed(c, c.kinematics, BodyMotion{}, plan);
   CfdFlight coupled(c, dyn, plan);
   BodyStateVector x0 = BodyStateVector::Zero();
   x0(7) = 0.35;  // q, rad/s (20 deg/s)
+  if (closed_loop) {
+    PitchControllerSettings p;
+    p.pitch_gain = 0.5;
+    p.rate_gain_s = 0.05;
+    p.pitch_latency_s = 0.041;
+    p.rate_latency_s = 0;
+    coupled.set_controller(pitch_controller(p, parameter_value(c.kinematics, "stroke_plane_deg")),
+                           [](double) { return BodyStateVector::Zero().eval(); });
+  }
   coupled.start(nullptr, x0);
   omp_set_num_threads(int(state.range(0)));
   for (int k = 0; k < 10; ++k) prescribed.advance(), coupled.advance();
@@ -46,6 +61,10 @@ void BM_CoupledAgainstPrescribedHawkmothStep(benchmark::State& state) {
   state.counters["coupled_over_prescribed"] = tb / ta;
   state.counters["extra_ms_per_step"] = (tb - ta) * 1e3 / double(n);
 }
+
+void BM_CoupledAgainstPrescribedHawkmothStep(benchmark::State& state) { coupled_against_prescribed(state, false); }
+void BM_ClosedLoopAgainstPrescribedHawkmothStep(benchmark::State& state) { coupled_against_prescribed(state, true); }
 BENCHMARK(BM_CoupledAgainstPrescribedHawkmothStep)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(40);
+BENCHMARK(BM_ClosedLoopAgainstPrescribedHawkmothStep)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(40);
 
 }  // namespace

@@ -146,15 +146,10 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
                      "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
                  "fly", "control.feedback[0].actuator");  // no [[control.actuator]] with its limits
-  // Under the Navier-Stokes model the wingbeat frequency is no actuator and a Floquet-mode start is not available:
-  // refused before any run.
+  // Under the Navier-Stokes model the wingbeat frequency is no actuator: refused before any run.
   expect_refused(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""),
                           "actuator = \"stroke_plane_deg\"", "actuator = \"frequency_hz\""),
                  "fly", "control.pitch.actuator");
-  expect_refused(replaced(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""), "type = \"pitch\"",
-                                   "type = \"none\""),
-                          "theta_deg = 0.5", "mode = \"longitudinal\""),
-                 "fly", "flight.perturbation.mode");
   expect_refused(replaced(h, "start = \"periodic-orbit\"", "start = \"periodic-orbit\"\ncfd_residual = \"drop\""), "fly",
                  "flight.cfd_residual");
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
@@ -266,6 +261,20 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   EXPECT_GT(ta.size(), 1000u);
   EXPECT_EQ(ta, tb);
   EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
+  // Along the quasi-steady model's longitudinal Floquet mode (6 steps): the hover and the reference flight reused,
+  // the perturbation the mode's (u, w, q and theta moved, the lateral states not).
+  std::string m = replaced(text, "q_deg_s = 50.0", "mode = \"longitudinal\"\nmode_amplitude = 1e-3");
+  const CliResult rm = flapstab("fly " + testing::write_temp("fly_cfd_mode.toml", m) + " -o " + a + " --wingbeats 0.05");
+  ASSERT_EQ(rm.status, 0) << rm.out << rm.err;
+  EXPECT_NE(rm.out.find("longitudinal Floquet mode"), std::string::npos) << rm.out;
+  EXPECT_NE(rm.out.find("reference: resumed"), std::string::npos) << rm.out;
+  std::ifstream jm(fs::path(a) / "run.json");
+  const nlohmann::json km = nlohmann::json::parse(jm);
+  const auto& x = km["flight"]["initial_state"];
+  EXPECT_GT(std::abs(x["u_m/s"].get<double>()) + std::abs(x["q_rad/s"].get<double>()), 0.0) << x.dump();
+  EXPECT_EQ(x["v_m/s"].get<double>(), 0.0);
+  EXPECT_GT(std::hypot(km["flight"]["mode_multiplier"][0].get<double>(), km["flight"]["mode_multiplier"][1].get<double>()), 0.0);
+  EXPECT_EQ(km["result"]["steps"], 6);
 }
 
 }  // namespace
