@@ -256,30 +256,51 @@ FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ct
 GrowthEstimate wingbeat_growth(const FlightResult& r, const ReferenceOrbit& reference, const ReferenceQuantities& ref,
                                double T, const std::vector<int>& states, int first) {
   GrowthEstimate g;
+  auto scale = [&](int i) {
+    return i >= 3 && i < 6 ? 1 / ref.U : (i >= 6 && i < 9 ? ref.c / ref.U : (i < 3 ? 1 / ref.c : 1.0));
+  };
+  std::vector<BodyStateVector> sum;
+  std::vector<int> count;
   for (const FlightSample& s : r.samples) {
     const int k = std::min(int(std::floor(s.t / T + 1e-9)), int(std::floor(r.samples.back().t / T - 1e-9)));
     if (k < 0) continue;
-    if (std::size_t(k) >= g.deviation.size()) g.deviation.resize(std::size_t(k) + 1, 0.0);
+    if (std::size_t(k) >= g.deviation.size()) {
+      g.deviation.resize(std::size_t(k) + 1, 0.0);
+      sum.resize(std::size_t(k) + 1, BodyStateVector::Zero());
+      count.resize(std::size_t(k) + 1, 0);
+    }
     const BodyStateVector d = s.x - reference.state(s.t);
     double m = 0;
-    for (int i : states) {
-      const double sc = i >= 3 && i < 6 ? 1 / ref.U : (i >= 6 && i < 9 ? ref.c / ref.U : (i < 3 ? 1 / ref.c : 1.0));
-      m = std::max(m, std::abs(d(i)) * sc);
-    }
+    for (int i : states) m = std::max(m, std::abs(d(i)) * scale(i));
     g.deviation[std::size_t(k)] = std::max(g.deviation[std::size_t(k)], m);
+    // The wingbeat's mean: its samples from its start to before its end (the closing sample belongs to the last).
+    if (s.t < (k + 1) * T * (1 - 1e-12)) {
+      sum[std::size_t(k)] += d;
+      ++count[std::size_t(k)];
+    }
   }
   const int n = int(g.deviation.size());
+  g.mean_deviation.assign(std::size_t(n), 0.0);
+  for (int k = 0; k < n; ++k)
+    for (int i : states)
+      if (count[std::size_t(k)] > 0)
+        g.mean_deviation[std::size_t(k)] =
+            std::max(g.mean_deviation[std::size_t(k)], std::abs(sum[std::size_t(k)](i)) / count[std::size_t(k)] * scale(i));
   g.last = n - 1;
   g.first = first >= 0 ? std::min(first, g.last - 1) : n / 2;
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  int cnt = 0;
-  for (int k = g.first; k <= g.last; ++k) {
-    if (!(g.deviation[std::size_t(k)] > 0)) continue;
-    const double y = std::log(g.deviation[std::size_t(k)]);
-    sx += k, sy += y, sxx += double(k) * k, sxy += k * y;
-    ++cnt;
-  }
-  g.per_wingbeat = cnt >= 2 ? (cnt * sxy - sx * sy) / (cnt * sxx - sx * sx) : std::nan("");
+  auto slope = [&](const std::vector<double>& dev) {
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int cnt = 0;
+    for (int k = g.first; k <= g.last; ++k) {
+      if (!(dev[std::size_t(k)] > 0)) continue;
+      const double y = std::log(dev[std::size_t(k)]);
+      sx += k, sy += y, sxx += double(k) * k, sxy += k * y;
+      ++cnt;
+    }
+    return cnt >= 2 ? (cnt * sxy - sx * sy) / (cnt * sxx - sx * sx) : std::nan("");
+  };
+  g.per_wingbeat = slope(g.deviation);
+  g.mean_per_wingbeat = slope(g.mean_deviation);
   return g;
 }
 

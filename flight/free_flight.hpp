@@ -59,10 +59,15 @@ FlightResult simulate_flight(const FlightDynamics& dynamics, const ControllerSpe
 // Growth of the deviation from the reference orbit: per wingbeat k, the largest non-dimensional max-norm of
 // x - x_ref over the states (velocities / U, rates c / U, angles rad); the rate is the least-squares slope of
 // log(deviation) over wingbeats [first, last] (per wingbeat; > 0 grows).
+// The same from the wingbeat means: per wingbeat the largest non-dimensional |mean of x_i - x_ref,i| over the
+// states (the slow motion a controller acts on, without the within-wingbeat rocking that changed kinematics alter),
+// and the slope of its logarithm over the same wingbeats.
 struct GrowthEstimate {
   std::vector<double> deviation;  // per wingbeat
   double per_wingbeat = 0;
   int first = 0, last = 0;
+  std::vector<double> mean_deviation;  // per wingbeat, from the wingbeat means
+  double mean_per_wingbeat = 0;
 };
 GrowthEstimate wingbeat_growth(const FlightResult& r, const ReferenceOrbit& reference, const ReferenceQuantities& ref,
                                double period, const std::vector<int>& states, int first_wingbeat = -1);

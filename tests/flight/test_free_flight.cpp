@@ -247,5 +247,32 @@ TEST(Controller, BadInputNamesTheKey) {
   testing::expect_input_error([] { parse_dof_set("5dof", "f", "flight.dof"); }, "flight.dof");
 }
 
+// The growth estimates on a synthetic deviation: theta - theta_ref = a exp(g t / T) + b sin(2 pi t / T), 40 samples per
+// wingbeat over 8 wingbeats. The wingbeat means drop the rocking term (a whole period of uniform samples): mean k =
+// a exp(g k) (1/40) sum_j exp(g j / 40), so their log-slope is g exactly (1e-10); the largest |deviation| per
+// wingbeat is dominated by the rocking and its slope is not g.
+TEST(FreeFlight, WingbeatMeanDeviationRemovesTheRocking) {
+  const double T = 0.04, a = 1e-3, g = 0.3, b = 0.05;
+  FlightResult r;
+  for (int n = 0; n <= 8 * 40; ++n) {
+    FlightSample s;
+    s.t = n * T / 40;
+    s.x = BodyStateVector::Zero();
+    s.x(10) = a * std::exp(g * s.t / T) + b * std::sin(2 * pi * s.t / T);
+    r.samples.push_back(s);
+  }
+  const ReferenceOrbit zero{[](double) { return BodyStateVector::Zero().eval(); }, BodyStateVector::Zero()};
+  ReferenceQuantities ref;
+  ref.c = 0.02;
+  ref.U = 5;
+  const GrowthEstimate e = wingbeat_growth(r, zero, ref, T, {10}, 2);
+  ASSERT_EQ(e.mean_deviation.size(), 8u);
+  double c = 0;
+  for (int j = 0; j < 40; ++j) c += std::exp(g * j / 40.0) / 40;
+  for (int k = 0; k < 8; ++k) EXPECT_NEAR(e.mean_deviation[std::size_t(k)], a * std::exp(g * k) * c, 1e-12) << k;
+  EXPECT_NEAR(e.mean_per_wingbeat, g, 1e-10);
+  EXPECT_GT(std::abs(e.per_wingbeat - g), 0.1);  // the rocking hides the growth in the largest deviation
+}
+
 }  // namespace
 }  // namespace flapstab
