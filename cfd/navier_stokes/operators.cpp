@@ -244,6 +244,41 @@ double kinetic_energy(const Grid& g, const VectorField& u) {
   return e;
 }
 
+double viscous_dissipation(const Grid& g, const VectorField& u, double nu) {
+  const Shape s = g.shape();
+  const int n[3] = {s.nx, s.ny, s.nz};
+  const std::ptrdiff_t st[3] = {1, s.sy, s.sz};
+  double total = 0;
+  for (int d = 0; d < 3; ++d) {
+    const real* ud = u[d].data();
+    int lo[3] = {1, 1, 1};
+    if (!g.axis[d].periodic) lo[d] = 2;  // the boundary faces along d are not unknowns
+    double acc = 0;
+#pragma omp parallel for schedule(static) reduction(+ : acc) if (threaded(s))
+    for (int k = lo[2]; k <= n[2]; ++k)
+      for (int j = lo[1]; j <= n[1]; ++j)
+        for (int i = lo[0]; i <= n[0]; ++i) {
+          const int I[3] = {i, j, k};
+          const std::ptrdiff_t m = s(i, j, k);
+          double lap = 0, V = 1;
+          for (int e = 0; e < 3; ++e) {
+            const Axis& a = g.axis[e];
+            const std::ptrdiff_t se = st[e];
+            if (e == d) {
+              lap += ((ud[m + se] - ud[m]) * a.idc[I[e]] - (ud[m] - ud[m - se]) * a.idc[I[e] - 1]) * a.idf[I[e]];
+              V *= a.dv[I[e]];
+            } else {
+              lap += ((ud[m + se] - ud[m]) * a.idf[I[e] + 1] - (ud[m] - ud[m - se]) * a.idf[I[e]]) * a.idc[I[e]];
+              V *= a.dc[I[e]];
+            }
+          }
+          acc -= ud[m] * lap * V;
+        }
+    total += acc;
+  }
+  return nu * total;
+}
+
 double max_divergence(const Grid& g, const VectorField& u) {
   Field div(g.shape());
   divergence(g, u, div, 1.0);

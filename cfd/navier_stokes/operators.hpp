@@ -32,6 +32,10 @@ void project(const Grid& g, const VectorField& ustar, const Field& phi, VectorFi
 
 // Diagnostics.
 double kinetic_energy(const Grid& g, const VectorField& u);       // 1/2 sum over faces of u^2 times face volume
+// Rate at which the momentum predictor's viscous term removes kinetic energy: -nu sum over the interior velocity
+// unknowns of u lap(u) times their control volume (the discrete dissipation, per unit density; the stencil of
+// predict(), so the boundary links use the ghosts as they stand: call with BC-consistent ghosts for the exact value).
+double viscous_dissipation(const Grid& g, const VectorField& u, double nu);
 double max_divergence(const Grid& g, const VectorField& u);       // max over cells of |D u|
 double max_rate(const Grid& g, const VectorField& u);             // max over cells of sum_a |u_a| / dx_a
 // Where that maximum is (a slow scan, for messages): the cell (1-based interior indices), its centre and the rate.
