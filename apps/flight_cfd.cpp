@@ -400,6 +400,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     const auto it = ref_state.find(k);
     return it == ref_state.end() ? BodyStateVector::Zero().eval() : it->second;
   };
+  std::vector<double> sample_cfl;  // the CFL number of each sample's step
   for (const auto& s : steps)
     if ((s.step - first) % stride == 0) {
       FlightSample q;
@@ -409,6 +410,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       q.power = s.power;
       q.command = s.command;
       r.samples.push_back(q);
+      sample_cfl.push_back(s.cfl);
     }
   r.completed = stop.empty();
   r.stop_reason = stop;
@@ -425,8 +427,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   for (int i : {3, 4, 5, 6, 7, 8, 9, 10}) csv += fmt::format(",d{}", state_column(i));
   csv += ",X_N,Y_N,Z_N,L_N_m,M_N_m,N_N_m,power_W";
   for (const auto& a : actuators) csv += fmt::format(",command_{}", a.label());
-  csv += "\n";
-  for (const FlightSample& s : r.samples) {
+  csv += ",cfl\n";
+  for (std::size_t n = 0; n < r.samples.size(); ++n) {
+    const FlightSample& s = r.samples[n];
     std::vector<double> row{s.t, s.t / T};
     for (int i = 0; i < 12; ++i) row.push_back(s.x(i));
     const BodyStateVector d = s.x - reference.state(s.t);
@@ -435,6 +438,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     for (int i = 0; i < 3; ++i) row.push_back(s.aero.moment(i));
     row.push_back(s.power);
     for (std::size_t a = 0; a < actuators.size(); ++a) row.push_back(a < s.command.size() ? s.command[a] : 0.0);
+    row.push_back(sample_cfl[n]);
     csv += fmt::format("{:.10g}\n", fmt::join(row, ","));
   }
   std::string steps_csv = steps_header(actuators);

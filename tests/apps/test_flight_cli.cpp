@@ -243,6 +243,13 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
       largest = std::max(largest, std::abs(u));
     }
     EXPECT_EQ(first, 0.0);  // steps 0-15 sense before the start (15.6 steps of latency)
+    std::ifstream tr(fs::path(a) / "trajectory.csv");
+    std::getline(tr, header);
+    EXPECT_NE(header.find(",command_stroke_plane_deg,cfl"), std::string::npos) << header;
+    std::getline(tr, line);  // the start: no step yet, CFL 0
+    std::getline(tr, line);
+    const double cfl = std::stod(line.substr(line.rfind(',') + 1));
+    EXPECT_GT(cfl, 0.0);  // the solver's CFL at the sample's step
     EXPECT_GT(largest, 0.1);  // deg: 50 deg/s of pitch rate x 0.05 s = 2.5 deg at the start
   }
   const CliResult rb1 = flapstab("fly " + path + " -o " + b + " --wingbeats 1");
