@@ -22,28 +22,7 @@ constexpr int body_substeps = 2;
 class CfdFlight::Feedback {
  public:
   Feedback(const FlightDynamics& dyn, const ControllerSpec& c, std::function<BodyStateVector(double)> reference)
-      : spec_(c), ref_(std::move(reference)), period_(dyn.trimmed().period()) {
-    const std::size_t n = dyn.actuators().size();
-    lower_.assign(n, -1e300);
-    upper_.assign(n, 1e300);
-    for (const auto& a : c.actuators) {
-      const auto i = dyn.actuator_index(a.label());
-      if (!i) throw SolveError("free flight: actuator \"" + a.label() + "\" is not among the dynamics' actuators");
-      lower_[std::size_t(*i)] = a.lower - dyn.actuator_trim()[std::size_t(*i)];
-      upper_[std::size_t(*i)] = a.upper - dyn.actuator_trim()[std::size_t(*i)];
-    }
-    for (const auto& t : c.terms) {
-      Term term;
-      term.state = *body_state_index(t.state);
-      const auto a = dyn.actuator_index(t.actuator);
-      if (!a) throw SolveError("free flight: actuator \"" + t.actuator + "\" is not among the dynamics' actuators");
-      term.actuator = *a;
-      term.spec = t;
-      if (t.filter_time_s > 0) term.filter = n_filters_++;
-      terms_.push_back(term);
-    }
-    n_act_ = n;
-  }
+      : spec_(c), bound_(dyn, c), ref_(std::move(reference)), period_(dyn.trimmed().period()) {}
 
   // The flight starts at time t0 in state x0.
   void start(double t0, const BodyStateVector& x0) {
@@ -52,18 +31,18 @@ class CfdFlight::Feedback {
     hd_.clear();
     hs_.push_back(0);
     hd_.push_back(x0 - ref_(0));
-    filt_.assign(std::size_t(n_filters_), 0.0);
-    raw_last_.assign(std::size_t(n_filters_), 0.0);
-    for (const Term& t : terms_)
+    filt_.assign(std::size_t(bound_.filters), 0.0);
+    raw_last_.assign(std::size_t(bound_.filters), 0.0);
+    for (const Term& t : bound_.terms)
       if (t.filter >= 0) filt_[std::size_t(t.filter)] = raw_last_[std::size_t(t.filter)] = raw(t, 0, 0, hd_.back());
-    held_ = spec_.update == ControlUpdate::wingbeat ? law(0, hd_.back()) : std::vector<double>(n_act_, 0.0);
+    held_ = spec_.update == ControlUpdate::wingbeat ? law(0, hd_.back()) : std::vector<double>(bound_.lower.size(), 0.0);
   }
   // A fluid step accepted at time t with the body at x.
   void accept(double t, const BodyStateVector& x) {
     const double s = t - t0_;
     const BodyStateVector d = x - ref_(s);
     std::vector<double> f(filt_.size()), r(filt_.size());
-    for (const Term& term : terms_)
+    for (const Term& term : bound_.terms)
       if (term.filter >= 0) {
         f[std::size_t(term.filter)] = filtered(term, s, d);
         r[std::size_t(term.filter)] = raw(term, s, s, d);
@@ -84,10 +63,7 @@ class CfdFlight::Feedback {
   }
 
  private:
-  struct Term {
-    int state = 0, actuator = 0, filter = -1;
-    FeedbackTerm spec;
-  };
+  using Term = BoundController::Term;
   // The deviation at flight time s: zero before the start, the stored history up to its newest point, then linear
   // to the current deviation d_now at s_now.
   BodyStateVector deviation(double s, double s_now, const BodyStateVector& d_now) const {
@@ -116,21 +92,13 @@ class CfdFlight::Feedback {
     return E * f0 + (1 - E) * a + (b - a) * (1 - T * (1 - E) / h);
   }
   std::vector<double> law(double s, const BodyStateVector& d_now) const {
-    std::vector<double> u(n_act_, 0.0);
-    for (const Term& term : terms_) {
-      const double sig = term.filter >= 0 ? filtered(term, s, d_now) : raw(term, s, s, d_now);
-      u[std::size_t(term.actuator)] -= term.spec.gain * sig;
-    }
-    for (std::size_t i = 0; i < u.size(); ++i) u[i] = std::clamp(u[i], lower_[i], upper_[i]);
-    return u;
+    return bound_.law([&](const Term& t) { return t.filter >= 0 ? filtered(t, s, d_now) : raw(t, s, s, d_now); });
   }
   ControllerSpec spec_;
+  BoundController bound_;
   std::function<BodyStateVector(double)> ref_;
   double period_ = 0, t0_ = 0;
-  std::vector<Term> terms_;
-  int n_filters_ = 0;
-  std::size_t n_act_ = 0;
-  std::vector<double> lower_, upper_, held_, filt_, raw_last_;
+  std::vector<double> held_, filt_, raw_last_;
   std::vector<double> hs_;
   std::vector<BodyStateVector> hd_;
 };

@@ -41,35 +41,17 @@ constexpr double e1 = 71. / 57600, e3 = -71. / 16695, e4 = 71. / 1920, e5 = -172
 class FlightSystem {
  public:
   FlightSystem(const FlightDynamics& dyn, const ControllerSpec& ctrl, const ReferenceOrbit& ref)
-      : dyn_(dyn), ctrl_(ctrl), ref_(ref), history_(ref.state) {
-    for (const auto& t : ctrl.terms) {
-      Term term;
-      term.state = *body_state_index(t.state);
-      const auto a = dyn.actuator_index(t.actuator);
-      if (!a) throw SolveError("free flight: actuator \"" + t.actuator + "\" is not among the dynamics' actuators");
-      term.actuator = *a;
-      term.spec = t;
-      term.filter = t.filter_time_s > 0 ? n_filters_++ : -1;
-      terms_.push_back(term);
-    }
-    lower_.assign(dyn.actuators().size(), -1e300);
-    upper_.assign(dyn.actuators().size(), 1e300);
-    for (const auto& a : ctrl.actuators) {
-      const auto i = dyn.actuator_index(a.label());
-      if (!i) throw SolveError("free flight: actuator \"" + a.label() + "\" is not among the dynamics' actuators");
-      lower_[std::size_t(*i)] = a.lower - dyn.actuator_trim()[std::size_t(*i)];
-      upper_[std::size_t(*i)] = a.upper - dyn.actuator_trim()[std::size_t(*i)];
-    }
+      : dyn_(dyn), ctrl_(ctrl), ref_(ref), history_(ref.state), bound_(dyn, ctrl) {
     held_.assign(dyn.actuators().size(), 0.0);
     freq_ = dyn.actuator_index("frequency_hz");
   }
-  Eigen::Index size() const { return 12 + n_filters_ + 1; }
+  Eigen::Index size() const { return 12 + bound_.filters + 1; }
   DelayLine& history() { return history_; }
 
   Eigen::VectorXd initial(const BodyStateVector& x0) const {
     Eigen::VectorXd y = Eigen::VectorXd::Zero(size());
     y.head<12>() = x0;
-    for (const auto& t : terms_)
+    for (const auto& t : bound_.terms)
       if (t.filter >= 0) y(12 + t.filter) = sensed_raw(t, 0, x0);
     return y;
   }
@@ -90,7 +72,7 @@ class FlightSystem {
     const FlightDerivative d = dyn_.derivative(t_kin, x, cmd);
     Eigen::VectorXd dy(size());
     dy.head<12>() = d.dx;
-    for (const auto& term : terms_)
+    for (const auto& term : bound_.terms)
       if (term.filter >= 0)
         dy(12 + term.filter) = (sensed_raw(term, t, x) - y(12 + term.filter)) / term.spec.filter_time_s;
     dy(size() - 1) = f;
@@ -100,10 +82,7 @@ class FlightSystem {
   }
 
  private:
-  struct Term {
-    int state = 0, actuator = 0, filter = -1;
-    FeedbackTerm spec;
-  };
+  using Term = BoundController::Term;
   // Sensed deviation of a term before filtering: the delayed (or, without latency, current) state minus the
   // hover reference.
   double sensed_raw(const Term& term, double t, const BodyStateVector& x_now) const {
@@ -112,27 +91,40 @@ class FlightSystem {
     return v - (ctrl_.sense_orbit_deviation ? ref_.state(td)(term.state) : ref_.mean(term.state));
   }
   std::vector<double> law(double t, const Eigen::VectorXd& y) const {
-    std::vector<double> u(dyn_.actuators().size(), 0.0);
-    if (terms_.empty()) return u;
     const BodyStateVector x = y.head<12>();
-    for (const auto& term : terms_) {
-      const double s = term.filter >= 0 ? y(12 + term.filter) : sensed_raw(term, t, x);
-      u[std::size_t(term.actuator)] -= term.spec.gain * s;
-    }
-    for (std::size_t i = 0; i < u.size(); ++i) u[i] = std::clamp(u[i], lower_[i], upper_[i]);
-    return u;
+    return bound_.law([&](const Term& term) { return term.filter >= 0 ? y(12 + term.filter) : sensed_raw(term, t, x); });
   }
   const FlightDynamics& dyn_;
   const ControllerSpec& ctrl_;
   const ReferenceOrbit& ref_;
   DelayLine history_;
-  std::vector<Term> terms_;
-  int n_filters_ = 0;
-  std::vector<double> lower_, upper_, held_;
+  BoundController bound_;
+  std::vector<double> held_;
   std::optional<int> freq_;
 };
 
 }  // namespace
+
+BoundController::BoundController(const FlightDynamics& dyn, const ControllerSpec& c) {
+  for (const auto& t : c.terms) {
+    Term term;
+    term.state = *body_state_index(t.state);
+    const auto a = dyn.actuator_index(t.actuator);
+    if (!a) throw SolveError("free flight: actuator \"" + t.actuator + "\" is not among the dynamics' actuators");
+    term.actuator = *a;
+    term.spec = t;
+    term.filter = t.filter_time_s > 0 ? filters++ : -1;
+    terms.push_back(term);
+  }
+  lower.assign(dyn.actuators().size(), -1e300);
+  upper.assign(dyn.actuators().size(), 1e300);
+  for (const auto& a : c.actuators) {
+    const auto i = dyn.actuator_index(a.label());
+    if (!i) throw SolveError("free flight: actuator \"" + a.label() + "\" is not among the dynamics' actuators");
+    lower[std::size_t(*i)] = a.lower - dyn.actuator_trim()[std::size_t(*i)];
+    upper[std::size_t(*i)] = a.upper - dyn.actuator_trim()[std::size_t(*i)];
+  }
+}
 
 FlightResult simulate_flight(const FlightDynamics& dyn, const ControllerSpec& ctrl, const BodyStateVector& x0,
                              const ReferenceOrbit& reference, const ReferenceQuantities& ref,

@@ -7,6 +7,7 @@
 // interpolates it with cubic Hermite polynomials). Steps land on every wingbeat boundary, where a
 // sample-and-hold controller updates its command. Before t = 0 the sensors see the unperturbed periodic orbit.
 #pragma once
+#include <algorithm>
 #include <functional>
 #include <string>
 #include <vector>
@@ -50,6 +51,29 @@ struct ReferenceOrbit {
 // The orbit from samples at t_k = k T / N (k = 0..N-1, periodic) with periodic cubic splines; position drift is
 // removed (x, y, z of the orbit are taken periodic).
 ReferenceOrbit reference_orbit(const std::vector<BodyStateVector>& samples, double period);
+
+// A controller bound to the dynamics' actuators (the quasi-steady and the coupled free flight share it): each term's
+// sensed state and actuator index, its filter slot, and each actuator's offset limits from trim (parameter units).
+// Throws SolveError for an actuator the dynamics do not have.
+struct BoundController {
+  struct Term {
+    int state = 0, actuator = 0, filter = -1;
+    FeedbackTerm spec;
+  };
+  std::vector<Term> terms;
+  int filters = 0;
+  std::vector<double> lower, upper;
+  BoundController(const FlightDynamics& dyn, const ControllerSpec& c);
+  // The command: -sum of gain x signal(term) per actuator, clamped to its limits.
+  template <class Signal>
+  std::vector<double> law(Signal&& signal) const {
+    std::vector<double> u(lower.size(), 0.0);
+    if (terms.empty()) return u;
+    for (const Term& t : terms) u[std::size_t(t.actuator)] -= t.spec.gain * signal(t);
+    for (std::size_t i = 0; i < u.size(); ++i) u[i] = std::clamp(u[i], lower[i], upper[i]);
+    return u;
+  }
+};
 
 // Integrates from x0 at t = 0 (its components that the DoF set holds are zeroed) with the controller (may be empty). Throws SolveError for a non-finite state.
 FlightResult simulate_flight(const FlightDynamics& dynamics, const ControllerSpec& controller, const BodyStateVector& x0,
