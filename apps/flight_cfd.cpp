@@ -67,14 +67,16 @@ std::string steps_row(const CfdFlightStep& s, double T) {
   return fmt::format("{:.17g}\n", fmt::join(row, ","));
 }
 
-CfdFlightStep parse_steps_row(const std::string& line, std::size_t actuators) {
+// A row of steps.csv. file_commands: the command columns the file's header names (command_<actuator>); the step's
+// command is laid out for `actuators`, an actuator the file lacks at zero (a reference flight written under another
+// controller, or before the command columns existed, flew open loop: its commands are zero).
+CfdFlightStep parse_steps_row(const std::string& line, const std::vector<std::string>& file_commands,
+                              const std::vector<TrimParameterSpec>& actuators) {
   std::vector<double> v;
   std::stringstream ss(line);
   std::string cell;
   while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
-  // A row of an open-loop flight written before the command columns existed carries no commands: zeros.
-  if (v.size() == 4 + 12 + 12 + 1) v.resize(v.size() + actuators, 0.0);
-  if (v.size() != 4 + 12 + 12 + 1 + actuators) throw std::invalid_argument("row length");
+  if (v.size() != 4 + 12 + 12 + 1 + file_commands.size()) throw std::invalid_argument("row length");
   CfdFlightStep s;
   s.time = v[0];
   s.step = long(v[1]);
@@ -86,8 +88,21 @@ CfdFlightStep parse_steps_row(const std::string& line, std::size_t actuators) {
     for (int i = 0; i < 3; ++i) w->moment(i) = v[k++];
   }
   s.power = v[k++];
-  s.command.assign(v.begin() + std::ptrdiff_t(k), v.end());
+  s.command.assign(actuators.size(), 0.0);
+  for (std::size_t a = 0; a < actuators.size(); ++a)
+    for (std::size_t f = 0; f < file_commands.size(); ++f)
+      if (file_commands[f] == fmt::format("command_{}", actuators[a].label())) s.command[a] = v[k + f];
   return s;
+}
+
+// The command columns a steps.csv header names.
+std::vector<std::string> command_columns(const std::string& header) {
+  std::vector<std::string> out;
+  std::stringstream ss(header);
+  std::string cell;
+  while (std::getline(ss, cell, ','))
+    if (cell.rfind("command_", 0) == 0) out.push_back(cell);
+  return out;
 }
 
 // A controller's settings as text for the flight checkpoint's key: a changed gain, latency, limit or update rule
@@ -277,11 +292,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         std::ifstream in(ck_rows);
         std::string line;
         std::getline(in, line);
+        const std::vector<std::string> file_commands = command_columns(line);
         while (std::getline(in, line)) {
           if (line.empty()) continue;
           CfdFlightStep r;
           try {
-            r = parse_steps_row(line, actuators.size());
+            r = parse_steps_row(line, file_commands, actuators);
           } catch (const std::exception&) {
             throw InputError(ck_rows, "row", "a malformed row", "the rows flapstab fly wrote with its checkpoint");
           }

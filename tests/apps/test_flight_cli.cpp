@@ -210,6 +210,7 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
           "q_deg_s = 50.0\n";
   // Closed loop: the pitch controller on the stroke plane, its latency not a whole number of steps (T / 120 =
   // 0.3205 ms at 26 Hz; 5 ms = 15.6 steps), so a resumed run must rebuild the interpolated sensed history.
+  const std::string open_loop = text;
   text += "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"stroke_plane_deg\"\npitch_gain = 2.0\n"
           "rate_gain_s = 0.05\npitch_latency_s = 0.005\nrate_latency_s = 0.005\nlimit_deg = 20\n";
   const std::string path = testing::write_temp("fly_cfd.toml", text);
@@ -282,6 +283,11 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   EXPECT_EQ(x["v_m/s"].get<double>(), 0.0);
   EXPECT_GT(std::hypot(km["flight"]["mode_multiplier"][0].get<double>(), km["flight"]["mode_multiplier"][1].get<double>()), 0.0);
   EXPECT_EQ(km["result"]["steps"], 6);
+  // Open loop in the same directory: the reference flight (written with the controller's command column) is reused.
+  const CliResult ro = flapstab("fly " + testing::write_temp("fly_cfd_open.toml", open_loop) + " -o " + a +
+                                " --wingbeats 0.05");
+  ASSERT_EQ(ro.status, 0) << ro.out << ro.err;
+  EXPECT_NE(ro.out.find("reference: resumed"), std::string::npos) << ro.out;
 }
 
 }  // namespace
