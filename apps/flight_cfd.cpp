@@ -18,6 +18,7 @@
 #include "apps/results_json.hpp"
 #include "cfd/aero_factory.hpp"
 #include "cfd/derivatives.hpp"
+#include "trim/parameters.hpp"
 #include "trim/refine.hpp"
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
@@ -144,7 +145,19 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                  start.message));
   std::ostream* log = o.quiet ? nullptr : &std::cout;
   auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
-  const std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
+  std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
+  {  // the controller may drive each actuator to its limits: the fine box holds the wings there too
+    const ControllerSpec planned = controller_from_case(c, start.kinematics);
+    if (!planned.empty()) {
+      const TrimParameterization par(start.kinematics, planned.actuators, c.path);
+      for (std::size_t j = 0; j < planned.actuators.size(); ++j)
+        for (const double limit : {planned.actuators[j].lower, planned.actuators[j].upper}) {
+          std::vector<double> v = par.initial();
+          v[j] = limit;
+          extremes.push_back(par.apply(v));
+        }
+    }
+  }
   model->plan_for(extremes);
   const TrimResult trim = refine_trim(c, *model, *qs, start,
                                       RefineSettings{c.aero.cfd.trim_tolerance, c.aero.cfd.trim_iterations}, log);

