@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
   CLI::App* fly = app.add_subcommand(
       "fly", "nonlinear free flight of the trimmed insect from its periodic hover orbit (or from rest) with the "
              "[flight] perturbation and the [control] feedback law: trajectory.csv, run.json, response.svg in DIR. "
-             "With [aero] model = \"cfd\": coupled to the Navier-Stokes solver (open loop) from the kept CFD hover, "
+             "With [aero] model = \"cfd\": coupled to the Navier-Stokes solver (open or closed loop) from the kept CFD hover, "
              "also steps.csv, fields, surfaces and a checkpoint per wingbeat (the same command resumes; a larger "
              "--wingbeats extends)");
   fly->add_option("case", fo.case_path, "case file (TOML) with [flight] and optional [control] tables")
