@@ -109,6 +109,7 @@ std::vector<std::string> command_columns(const std::string& header) {
 // A controller's settings as text for the flight checkpoint's key: a changed gain, latency, limit or update rule
 // does not continue another controller's flight.
 std::string controller_key(const ControllerSpec& c) {
+  if (c.empty()) return "";  // open loop: the key as before closed loops existed
   std::string k = c.update == ControlUpdate::wingbeat ? "wingbeat" : "continuous";
   for (const auto& a : c.actuators) k += fmt::format(";{}[{:.17g},{:.17g}]", a.label(), a.lower, a.upper);
   for (const auto& t : c.terms)
@@ -146,7 +147,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   std::ostream* log = o.quiet ? nullptr : &std::cout;
   auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
   std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
-  {  // the controller may drive each actuator to its limits: the fine box holds the wings there too
+  // The controller may drive each actuator to its limits: the fine box holds the wings there too (each actuator at
+  // each limit, the others at the quasi-steady trim; a refined trim that moves an actuated parameter, or several
+  // actuators at their limits at once, can still take a wing out, which stops the run with BodyLeftGrid). A case with
+  // a controller therefore runs on a larger grid than the same case without one.
+  {
     const ControllerSpec planned = controller_from_case(c, start.kinematics);
     if (!planned.empty()) {
       const TrimParameterization par(start.kinematics, planned.actuators, c.path);
@@ -234,7 +239,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   const InterruptGuard guard;
   bool printed = false;
   // One coupled flight from x_init, resumable from its own checkpoint (name: "flight" or "reference").
-  auto fly = [&](const BodyStateVector& x_init, const std::string& name) {
+  auto fly = [&](const BodyStateVector& x_init, const std::string& name, long limit) {
     Flown f;
     CfdFlight fl(c, dyn, plan);
     if (name == "flight" && !controller.empty()) fl.set_controller(controller, reference_state);
@@ -357,7 +362,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       if (!f.resumed && c.aero.cfd.surfaces_per_cycle > 0) surfaces->write(fl.simulation());
     }
     try {
-      while (steps.back().step - first < total) {
+      while (steps.back().step - first < limit) {
         const double t_before = fl.simulation().time();
         const CfdFlightStep s = fl.advance();
         steps.push_back(s);
@@ -375,7 +380,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                max_angle * 180 / M_PI, s.time / T);
           break;
         }
-        if (done % spc == 0 || done == total) {
+        if (done % spc == 0 || done == limit) {
           checkpoint();
           if (!o.quiet) {
             const double el = seconds_since(tr), rate = el / double(s.step - start_step);
@@ -386,7 +391,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
             fmt::print("  {} wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm{}; "
                        "{:.0f} s, about {:.0f} s left{}\n",
                        name, double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
-                       s.x(2) * 1e3, cmd, seconds_since(t0), rate * double(total - done),
+                       s.x(2) * 1e3, cmd, seconds_since(t0), rate * double(limit - done),
                        with_reference && name == "reference" ? " (then the perturbed flight)" : "");
             std::fflush(stdout);  // progress of a long run, also when stdout is a file
           }
@@ -411,14 +416,24 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     return f;
   };
 
-  if (with_reference) ref_flight = fly(BodyStateVector::Zero(), "reference");
-  const Flown main = fly(x0, "flight");
+  if (with_reference) ref_flight = fly(BodyStateVector::Zero(), "reference", total);
+  // A reference that left the attitude envelope ends there: the deviation (and a controller's sensed signal) is not
+  // defined beyond it, so the perturbed flight stops at the same step.
+  long main_limit = total;
+  std::string cut;
+  if (ref_flight && !ref_flight->stop.empty()) {
+    main_limit = ref_flight->steps.back().step - ref_flight->steps.front().step;
+    cut = fmt::format("the unperturbed reference flight stopped ({}): the perturbed flight ends at the same step",
+                      ref_flight->stop);
+    if (!o.quiet) fmt::print("  {}\n", cut);
+  }
+  const Flown main = fly(x0, "flight", main_limit);
   const std::vector<CfdFlightStep>& steps = main.steps;
   const long first = steps.front().step;
   const bool resumed = main.resumed;
   const std::string ck_path = main.checkpoint;
   FlightResult r;
-  const std::string stop = main.stop;
+  const std::string stop = !main.stop.empty() ? main.stop : cut;
 
   // The phase-locked samples for the trajectory and the growth estimate. The reference: the unperturbed coupled
   // flight at the same step (with a perturbation from the hover), else the tethered hover (the body at rest at O).
