@@ -122,19 +122,6 @@ std::string controller_key(const ControllerSpec& c) {
 int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
                 const std::vector<int>& moving) {
   const auto t0 = std::chrono::steady_clock::now();
-  // The wingbeat frequency cannot be an actuator here (the immersed wings take the flow time as their kinematic
-  // time): refused before any work.
-  if (c.control.type == "pitch" && c.control.actuator == "frequency_hz")
-    throw InputError(c.path, "control.pitch.actuator",
-                     "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver (the "
-                     "immersed wings take the flow time as their kinematic time)",
-                     "a kinematic angle, e.g. \"stroke_plane_deg\"");
-  for (std::size_t i = 0; c.control.type == "state-feedback" && i < c.control.feedback.size(); ++i)
-    if (c.control.feedback[i].actuator == "frequency_hz")
-      throw InputError(c.path, fmt::format("control.feedback[{}].actuator", i),
-                       "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver "
-                       "(the immersed wings take the flow time as their kinematic time)",
-                       "a kinematic angle, e.g. \"stroke_plane_deg\"");
   // The kinematics: the quasi-steady trim refined on the CFD cycle means ([aero.cfd] trim_iterations), as the CFD
   // stability chain takes them (flapstab trim-hover / analyze with model = "cfd"), on the same grid.
   Case qc = c;
@@ -144,6 +131,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   if (!start.converged)
     throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
                                  start.message));
+  // The controller at the quasi-steady trim: an actuator the coupled flight cannot drive is refused before any CFD.
+  const ControllerSpec planned = controller_from_case(c, start.kinematics);
+  check_coupled_actuators(planned, c.path, [&](int i) {
+    return c.control.type == "pitch" ? std::string("control.pitch.actuator")
+                                     : fmt::format("control.feedback[{}].actuator", i);
+  });
   std::ostream* log = o.quiet ? nullptr : &std::cout;
   auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
   std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
@@ -151,17 +144,14 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   // each limit, the others at the quasi-steady trim; a refined trim that moves an actuated parameter, or several
   // actuators at their limits at once, can still take a wing out, which stops the run with BodyLeftGrid). A case with
   // a controller therefore runs on a larger grid than the same case without one.
-  {
-    const ControllerSpec planned = controller_from_case(c, start.kinematics);
-    if (!planned.empty()) {
-      const TrimParameterization par(start.kinematics, planned.actuators, c.path);
-      for (std::size_t j = 0; j < planned.actuators.size(); ++j)
-        for (const double limit : {planned.actuators[j].lower, planned.actuators[j].upper}) {
-          std::vector<double> v = par.initial();
-          v[j] = limit;
-          extremes.push_back(par.apply(v));
-        }
-    }
+  if (!planned.empty()) {
+    const TrimParameterization par(start.kinematics, planned.actuators, c.path);
+    for (std::size_t j = 0; j < planned.actuators.size(); ++j)
+      for (const double limit : {planned.actuators[j].lower, planned.actuators[j].upper}) {
+        std::vector<double> v = par.initial();
+        v[j] = limit;
+        extremes.push_back(par.apply(v));
+      }
   }
   model->plan_for(extremes);
   const TrimResult trim = refine_trim(c, *model, *qs, start,

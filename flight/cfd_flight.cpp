@@ -171,12 +171,18 @@ std::vector<ns::PartState> CfdFlight::relative_parts(double t, const std::vector
   return ns::InsectMotion(config, BodyMotion{}).parts(t);
 }
 
+void check_coupled_actuators(const ControllerSpec& c, const std::string& file,
+                             const std::function<std::string(int)>& key) {
+  for (std::size_t i = 0; i < c.terms.size(); ++i)
+    if (c.terms[i].actuator == "frequency_hz")
+      throw InputError(file, key(int(i)),
+                       "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver "
+                       "(the immersed wings take the flow time as their kinematic time)",
+                       "a kinematic angle, e.g. \"stroke_plane_deg\"");
+}
+
 void CfdFlight::set_controller(const ControllerSpec& controller, std::function<BodyStateVector(double)> reference) {
-  for (const auto& t : controller.terms)
-    if (t.actuator == "frequency_hz")
-      throw InputError("", "control", "the wingbeat frequency as an actuator of free flight coupled to the "
-                       "Navier-Stokes solver (the immersed wings take the flow time as their kinematic time)",
-                       "a kinematic angle (e.g. stroke_plane_deg) as the actuator");
+  check_coupled_actuators(controller, "", [](int i) { return fmt::format("control term {}: actuator", i); });
   feedback_ = controller.empty() ? nullptr : std::make_unique<Feedback>(dyn_, controller, std::move(reference));
 }
 

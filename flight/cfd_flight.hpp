@@ -57,6 +57,12 @@ struct CfdFlightStep {
   std::vector<double> command;  // actuator offsets from trim (parameter units; one per dynamics actuator)
 };
 
+// Refuses a feedback term whose actuator the coupled flight cannot drive: the wingbeat frequency (the immersed wings
+// take the flow time as their kinematic time; a frequency command would need the wingbeat phase as a state).
+// InputError naming `file` and key(term index).
+void check_coupled_actuators(const ControllerSpec& c, const std::string& file,
+                             const std::function<std::string(int)>& key);
+
 class CfdFlight {
  public:
   // dynamics: the insect, its (trimmed) kinematics and the degrees of freedom (its own loads are not used);

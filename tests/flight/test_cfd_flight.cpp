@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <memory>
 #include <optional>
 #include "cfd/navier_stokes/free_body.hpp"
 #include "cfd/navier_stokes/immersed.hpp"
@@ -484,25 +486,56 @@ TEST(CfdFlight, BodyLeavingTheFineBoxStopsWithAClearMessage) {
   EXPECT_NE(what.find("left the grid's uniform fine box"), std::string::npos);
 }
 
+// The tiny moth with the stroke plane as the dynamics' one actuator, and a controller on it (unbounded); `heavy`
+// makes the body immovable (mass and inertia x 1e15, no gravity, six degrees of freedom).
+struct StrokePlaneRig {
+  Case c;
+  ns::CfdPlan plan;
+  std::unique_ptr<ns::CfdModel> unused;
+  std::unique_ptr<FlightDynamics> dyn;
+  double dt = 0;  // the fluid step: 60 per wingbeat
+  explicit StrokePlaneRig(const std::string& name, bool heavy = false) : c(tiny_case(name)) {
+    if (heavy) {
+      c.insect.body.mass *= 1e15;
+      c.insect.body.inertia *= 1e15;
+    }
+    plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
+    unused = std::make_unique<ns::CfdModel>(c, nullptr);
+    dyn = std::make_unique<FlightDynamics>(*unused, c.insect, c.kinematics,
+                                           std::vector<TrimParameterSpec>{unbounded_parameter("stroke_plane_deg")},
+                                           heavy ? DofSet::six_dof : DofSet::longitudinal,
+                                           heavy ? std::optional<double>(0.0) : std::nullopt, false, c.path);
+    dt = c.kinematics.period() / 60;
+  }
+  static ControllerSpec controller(std::vector<FeedbackTerm> terms, ControlUpdate update = ControlUpdate::continuous) {
+    ControllerSpec ctrl;
+    ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+    ctrl.terms = std::move(terms);
+    ctrl.update = update;
+    return ctrl;
+  }
+  std::unique_ptr<CfdFlight> flight(const ControllerSpec& ctrl, std::function<BodyStateVector(double)> reference) const {
+    auto fl = std::make_unique<CfdFlight>(c, *dyn, plan);
+    fl->set_controller(ctrl, std::move(reference));
+    return fl;
+  }
+};
+const auto no_deviation = [](double) { return BodyStateVector::Zero().eval(); };
+
 // Closed loop: a term's command is minus its gain times the sensed deviation a latency ago, the history linear
 // between the fluid steps and zero before the start (the body state minus the reference, here the tethered hover).
 // Latency 2.5 steps on theta: the mean of the deviations 2 and 3 steps back; no latency on q: the current state.
 // Exact up to rounding of the interpolation weights (tolerance 1e-12 of the command's scale).
 TEST(CfdFlight, DelayedCommandIsTheDeviationALatencyAgo) {
-  const Case c = tiny_case("cfd_flight_delay.toml");
-  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
-  const ns::CfdModel unused(c, nullptr);
-  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
-                           DofSet::longitudinal, std::nullopt, false, c.path);
-  const double dt = c.kinematics.period() / 60, g_theta = 30, g_q = 0.2;  // deg per rad, deg per rad/s
-  ControllerSpec ctrl;
-  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
-  ctrl.terms = {{"theta", "stroke_plane_deg", g_theta, 2.5 * dt, 0}, {"q", "stroke_plane_deg", g_q, 0, 0}};
+  const StrokePlaneRig rig("cfd_flight_delay.toml");
+  const double dt = rig.dt, g_theta = 30, g_q = 0.2;  // deg per rad, deg per rad/s
   BodyStateVector x0 = BodyStateVector::Zero();
   x0(7) = 2.0;   // q, rad/s
   x0(10) = 0.01;  // theta, rad
-  CfdFlight fl(c, dyn, plan);
-  fl.set_controller(ctrl, [](double) { return BodyStateVector::Zero().eval(); });
+  const auto flp = rig.flight(
+      StrokePlaneRig::controller({{"theta", "stroke_plane_deg", g_theta, 2.5 * dt, 0}, {"q", "stroke_plane_deg", g_q, 0, 0}}),
+      no_deviation);
+  CfdFlight& fl = *flp;
   fl.start(nullptr, x0);
   std::vector<CfdFlightStep> st{fl.current()};
   for (int k = 0; k < 12; ++k) st.push_back(fl.advance());
@@ -522,20 +555,14 @@ TEST(CfdFlight, DelayedCommandIsTheDeviationALatencyAgo) {
 // Sampled once per wingbeat (update = "wingbeat"): the command holds over each wingbeat and is the law's value at
 // the wingbeat's start (latency 2 steps on theta, none on q).
 TEST(CfdFlight, WingbeatUpdateHoldsTheStartOfWingbeatCommand) {
-  const Case c = tiny_case("cfd_flight_hold.toml");
-  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
-  const ns::CfdModel unused(c, nullptr);
-  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
-                           DofSet::longitudinal, std::nullopt, false, c.path);
-  const double dt = c.kinematics.period() / 60;
-  ControllerSpec ctrl;
-  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
-  ctrl.terms = {{"theta", "stroke_plane_deg", 30, 2 * dt, 0}, {"q", "stroke_plane_deg", 0.2, 0, 0}};
-  ctrl.update = ControlUpdate::wingbeat;
+  const StrokePlaneRig rig("cfd_flight_hold.toml");
   BodyStateVector x0 = BodyStateVector::Zero();
   x0(7) = 2.0;
-  CfdFlight fl(c, dyn, plan);
-  fl.set_controller(ctrl, [](double) { return BodyStateVector::Zero().eval(); });
+  const auto flp = rig.flight(StrokePlaneRig::controller({{"theta", "stroke_plane_deg", 30, 2 * rig.dt, 0},
+                                                          {"q", "stroke_plane_deg", 0.2, 0, 0}},
+                                                         ControlUpdate::wingbeat),
+                              no_deviation);
+  CfdFlight& fl = *flp;
   fl.start(nullptr, x0);
   std::vector<CfdFlightStep> st{fl.current()};
   for (int k = 0; k < 63; ++k) st.push_back(fl.advance());
@@ -554,20 +581,12 @@ TEST(CfdFlight, WingbeatUpdateHoldsTheStartOfWingbeatCommand) {
 // trimmed one turned by rot_y(delta) about its hinge (the stroke plane's rotation, core/configuration), the hinge
 // and the body unmoved (O stays where the trimmed kinematics put it); its angular velocity turns with it.
 TEST(CfdFlight, CommandTiltsTheImmersedStrokePlane) {
-  Case c = tiny_case("cfd_flight_tilt.toml");
-  c.insect.body.mass *= 1e15;
-  c.insect.body.inertia *= 1e15;
-  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
-  const ns::CfdModel unused(c, nullptr);
-  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")}, DofSet::six_dof,
-                           0.0, false, c.path);
-  ControllerSpec ctrl;
-  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
-  ctrl.terms = {{"theta", "stroke_plane_deg", 100, 0, 0}};  // deg per rad
+  const StrokePlaneRig rig("cfd_flight_tilt.toml", true);
   BodyStateVector shifted = BodyStateVector::Zero();
   shifted(10) = -0.05;  // the sensed deviation +0.05 rad: command -5 deg
-  CfdFlight fl(c, dyn, plan);
-  fl.set_controller(ctrl, [shifted](double) { return shifted; });
+  const auto flp = rig.flight(StrokePlaneRig::controller({{"theta", "stroke_plane_deg", 100, 0, 0}}),  // deg per rad
+                              [shifted](double) { return shifted; });
+  CfdFlight& fl = *flp;
   fl.start(nullptr, BodyStateVector::Zero());
   const Mat3 tilt = rot_y(-5 * pi / 180);
   double worst_r = 0, worst_t = 0, worst_w = 0;
@@ -586,36 +605,25 @@ TEST(CfdFlight, CommandTiltsTheImmersedStrokePlane) {
   std::printf("  tilted stroke plane: rotation %.1e, hinge %.1e m, angular velocity %.1e rad/s off\n", worst_r,
               worst_t, worst_w);
   EXPECT_LT(worst_r, 1e-10);
-  EXPECT_LT(worst_t, 1e-10 * c.insect.wing.length);
+  EXPECT_LT(worst_t, 1e-10 * rig.c.insect.wing.length);
   EXPECT_LT(worst_w, 1e-8);
 }
 
 // A closed-loop flight continues bit for bit from a checkpoint: the sensed history (a latency of 3.4 steps) and a
 // sensor filter are rebuilt from the flight's past steps.
 TEST(CfdFlight, ClosedLoopRestartContinuesBitForBit) {
-  const Case c = tiny_case("cfd_flight_restart_cl.toml");
-  const ns::CfdPlan plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
-  const ns::CfdModel unused(c, nullptr);
-  const FlightDynamics dyn(unused, c.insect, c.kinematics, {unbounded_parameter("stroke_plane_deg")},
-                           DofSet::longitudinal, std::nullopt, false, c.path);
-  const double dt = c.kinematics.period() / 60;
-  ControllerSpec ctrl;
-  ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
-  ctrl.terms = {{"theta", "stroke_plane_deg", 30, 3.4 * dt, 2 * dt}, {"q", "stroke_plane_deg", 0.2, 3.4 * dt, 0}};
-  const auto ref = [](double) { return BodyStateVector::Zero().eval(); };
+  const StrokePlaneRig rig("cfd_flight_restart_cl.toml");
+  const ControllerSpec ctrl = StrokePlaneRig::controller(
+      {{"theta", "stroke_plane_deg", 30, 3.4 * rig.dt, 2 * rig.dt}, {"q", "stroke_plane_deg", 0.2, 3.4 * rig.dt, 0}});
   BodyStateVector x0 = BodyStateVector::Zero();
   x0(7) = 2.0;
-  CfdFlight a(c, dyn, plan);
-  a.set_controller(ctrl, ref);
+  const auto ap = rig.flight(ctrl, no_deviation), bp = rig.flight(ctrl, no_deviation), rp = rig.flight(ctrl, no_deviation);
+  CfdFlight &a = *ap, &b = *bp, &r = *rp;
   a.start(nullptr, x0);
   for (int k = 0; k < 20; ++k) a.advance();
-  CfdFlight b(c, dyn, plan);
-  b.set_controller(ctrl, ref);
   b.start(nullptr, x0);
   std::vector<CfdFlightStep> past{b.current()};
   for (int k = 0; k < 10; ++k) past.push_back(b.advance());
-  CfdFlight r(c, dyn, plan);
-  r.set_controller(ctrl, ref);
   r.restore(b.flow_state(), b.current().x, b.current().aero, past);
   for (int k = 0; k < 10; ++k) r.advance();
   std::printf("  closed-loop restart: theta %.17g straight, %.17g continued; command %.17g, %.17g\n",
@@ -625,9 +633,7 @@ TEST(CfdFlight, ClosedLoopRestartContinuesBitForBit) {
   EXPECT_EQ(a.current().command[0], r.current().command[0]);
   EXPECT_EQ(a.current().aero.force.z(), r.current().aero.force.z());
   // Without its past a closed-loop flight cannot continue.
-  CfdFlight q(c, dyn, plan);
-  q.set_controller(ctrl, ref);
-  EXPECT_THROW(q.restore(b.flow_state(), b.current().x, b.current().aero), SolveError);
+  EXPECT_THROW(rig.flight(ctrl, no_deviation)->restore(b.flow_state(), b.current().x, b.current().aero), SolveError);
 }
 
 // The control authority of the stroke-plane tilt on the CFD model against the quasi-steady one: the shipped
