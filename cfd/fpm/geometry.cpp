@@ -84,16 +84,18 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
   };
   // cells within one cell of a solid cell
   std::vector<char> near(s.cells(), 0);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {
-        if (owners[flat(i, j, k)] < 0) continue;
-        for (int c = -1; c <= 1; ++c)
-          for (int b = -1; b <= 1; ++b)
-            for (int a = -1; a <= 1; ++a) {
+        bool any = false;  // a solid cell among the 27 around (i, j, k)
+        for (int c = -1; c <= 1 && !any; ++c)
+          for (int b = -1; b <= 1 && !any; ++b)
+            for (int a = -1; a <= 1 && !any; ++a) {
               const int I = image(0, i + a), J = image(1, j + b), K = image(2, k + c);
-              if (I > 0 && J > 0 && K > 0) near[flat(I, J, K)] = 1;
+              any = I > 0 && J > 0 && K > 0 && owners[flat(I, J, K)] >= 0;
             }
+        near[flat(i, j, k)] = any;
       }
   std::vector<FaceSolid> solids;
   for (int d = 0; d < 3; ++d) {
@@ -101,62 +103,77 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     const int e = (d + 1) % 3, f = (d + 2) % 3;
     const ns::Axis &ae = g.axis[std::size_t(e)], &af = g.axis[std::size_t(f)];
     Field& ap = G.aperture[std::size_t(d)];
-    for (int k = 1; k <= s.nz + (d == 2); ++k)
-      for (int j = 1; j <= s.ny + (d == 1); ++j)
-        for (int i = 1; i <= s.nx + (d == 0); ++i) {
-          const int I[3] = {i, j, k};
-          if (I[e] > s.n(e) || I[f] > s.n(f)) continue;
-          const int F = I[d];
-          if (F == s.n(d) + 1 || (!ad.periodic && F == 1)) continue;  // the domain's faces (periodic: face 1 below)
-          int L[3] = {i, j, k};
-          L[d] = image(d, F - 1);
-          const bool tested = near[flat(i, j, k)] || near[flat(L[0], L[1], L[2])];
-          if (!tested) {
-            ap(i, j, k) = 1;
-            continue;
-          }
-          const double we = ae.dc[std::size_t(I[e])], wf = af.dc[std::size_t(I[f])];
-          const double h = std::max({we, wf, ad.dc[std::size_t(F)], ad.dc[std::size_t(std::max(F - 1, 1))]});
-          Vec3 centre;
-          centre[d] = ad.xf[std::size_t(F)];
-          centre[e] = ae.xc[std::size_t(I[e])];
-          centre[f] = af.xc[std::size_t(I[f])];
-          const double reach = 0.5 * std::hypot(we, wf);
-          const auto [v, who] = lowest(level, parts, centre, h);
-          if (v > reach) {
-            ap(i, j, k) = 1;
-            continue;
-          }
-          if (v < -reach) {
-            solids.push_back({d, {i, j, k}, who, 1.0, centre});
-            continue;
-          }
-          ++G.sampled_faces;
-          std::vector<int> count(std::size_t(parts), 0);
-          std::vector<Vec3> sum(std::size_t(parts), Vec3::Zero());
-          int fluid = 0;
-          for (int b = 0; b < samples; ++b)
-            for (int a = 0; a < samples; ++a) {
-              Vec3 x = centre;
-              x[e] += ((a + 0.5) / samples - 0.5) * we;
-              x[f] += ((b + 0.5) / samples - 0.5) * wf;
-              const auto [lv, lp] = lowest(level, parts, x, h);
-              if (lv < 0) {
-                ++count[std::size_t(lp)];
-                sum[std::size_t(lp)] += x;
-              } else {
-                ++fluid;
-              }
+    // Planes in parallel; each keeps its solid shares, joined in plane order afterwards (the same list as serially).
+    const int planes = s.nz + (d == 2);
+    std::vector<std::vector<FaceSolid>> plane_solids(std::size_t(planes) + 1);
+    std::size_t sampled = 0;
+#pragma omp parallel reduction(+ : sampled)
+    {
+      std::vector<int> count(std::size_t(parts), 0);
+      std::vector<Vec3> sum(std::size_t(parts), Vec3::Zero());
+#pragma omp for schedule(dynamic, 1)
+      for (int k = 1; k <= planes; ++k) {
+        std::vector<FaceSolid>& mine = plane_solids[std::size_t(k)];
+        for (int j = 1; j <= s.ny + (d == 1); ++j)
+          for (int i = 1; i <= s.nx + (d == 0); ++i) {
+            const int I[3] = {i, j, k};
+            if (I[e] > s.n(e) || I[f] > s.n(f)) continue;
+            const int F = I[d];
+            if (F == s.n(d) + 1 || (!ad.periodic && F == 1)) continue;  // the domain's faces (periodic: face 1 below)
+            int L[3] = {i, j, k};
+            L[d] = image(d, F - 1);
+            const bool tested = near[flat(i, j, k)] || near[flat(L[0], L[1], L[2])];
+            if (!tested) {
+              ap(i, j, k) = 1;
+              continue;
             }
-          const double n2 = double(samples) * samples;
-          ap(i, j, k) = fluid / n2;
-          for (int p = 0; p < parts; ++p)
-            if (count[std::size_t(p)] > 0)
-              solids.push_back({d, {i, j, k}, p, count[std::size_t(p)] / n2, sum[std::size_t(p)] / count[std::size_t(p)]});
-        }
+            const double we = ae.dc[std::size_t(I[e])], wf = af.dc[std::size_t(I[f])];
+            const double h = std::max({we, wf, ad.dc[std::size_t(F)], ad.dc[std::size_t(std::max(F - 1, 1))]});
+            Vec3 centre;
+            centre[d] = ad.xf[std::size_t(F)];
+            centre[e] = ae.xc[std::size_t(I[e])];
+            centre[f] = af.xc[std::size_t(I[f])];
+            const double reach = 0.5 * std::hypot(we, wf);
+            const auto [v, who] = lowest(level, parts, centre, h);
+            if (v > reach) {
+              ap(i, j, k) = 1;
+              continue;
+            }
+            if (v < -reach) {
+              mine.push_back({d, {i, j, k}, who, 1.0, centre});
+              continue;
+            }
+            ++sampled;
+            std::fill(count.begin(), count.end(), 0);
+            std::fill(sum.begin(), sum.end(), Vec3::Zero());
+            int fluid = 0;
+            for (int b = 0; b < samples; ++b)
+              for (int a = 0; a < samples; ++a) {
+                Vec3 x = centre;
+                x[e] += ((a + 0.5) / samples - 0.5) * we;
+                x[f] += ((b + 0.5) / samples - 0.5) * wf;
+                const auto [lv, lp] = lowest(level, parts, x, h);
+                if (lv < 0) {
+                  ++count[std::size_t(lp)];
+                  sum[std::size_t(lp)] += x;
+                } else {
+                  ++fluid;
+                }
+              }
+            const double n2 = double(samples) * samples;
+            ap(i, j, k) = fluid / n2;
+            for (int p = 0; p < parts; ++p)
+              if (count[std::size_t(p)] > 0)
+                mine.push_back({d, {i, j, k}, p, count[std::size_t(p)] / n2, sum[std::size_t(p)] / count[std::size_t(p)]});
+          }
+      }
+    }
+    G.sampled_faces += sampled;
+    for (const auto& v : plane_solids) solids.insert(solids.end(), v.begin(), v.end());
     if (ad.periodic) copy_periodic_faces(ap, s, d);
   }
   // fluid volume fraction: the mean aperture of the cell's faces inside the domain
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {

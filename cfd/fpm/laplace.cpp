@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -83,50 +84,120 @@ struct Level {
         }
   }
   void apply(Field& xv, Field& out) const { apply_or_residual(xv, nullptr, out); }
-  void residual(Field& xv, const Field& bv, Field& rv) const { apply_or_residual(xv, &bv, rv); }
-
-  // Red-black Gauss-Seidel: colours in the given order, `sweeps` times.
-  void smooth(Field& xv, const Field& bv, int sweeps, int first_colour) const {
-    for (int sw = 0; sw < sweeps; ++sw)
-      for (int c = 0; c < 2; ++c) {
-        const int colour = (first_colour + c) % 2;
-        fill_ghosts(s, periodic, xv.data());
-        real* xp = xv.data();
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-        for (int k = 1; k <= s.nz; ++k)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int i = 1 + ((j + k + 1 + colour) % 2); i <= s.nx; i += 2) {
-              const std::ptrdiff_t n = s(i, j, k);
-              if (active(n)) xp[n] = (bv[n] + off(xp, i, j, k)) / diag[n];
-            }
-      }
-  }
 };
 
-double max_abs_active(const Level& L, const Field& f) {
-  double m = 0;
-  const Shape& s = L.s;
-#pragma omp parallel for schedule(static) reduction(max : m) if (ns::threaded(s))
-  for (int k = 1; k <= s.nz; ++k)
-    for (int j = 1; j <= s.ny; ++j)
-      for (int i = 1; i <= s.nx; ++i) {
-        const std::ptrdiff_t n = s(i, j, k);
-        if (L.active(n)) m = std::max(m, std::abs(f[n]));
+// The preconditioner's hierarchy in single precision, for m right-hand sides at once: every per-cell array of m
+// values stores them side by side (value r of cell n at n * m + r), so a sweep reads each conductance once for all
+// m potentials of a sample (they share the operator) and the red-black colours skip whole groups of m values.
+struct BlockLevel {
+  Shape s;
+  bool periodic[3] = {false, false, false};
+  bool coarsen[3] = {false, false, false};
+  std::vector<float> a[3], diag;
+  mutable std::vector<float> x, b, r;  // m values per cell (resized for the block at hand)
+
+  explicit BlockLevel(const Level& L) : s(L.s) {
+    for (int d = 0; d < 3; ++d) {
+      periodic[d] = L.periodic[d];
+      coarsen[d] = L.coarsen[d];
+      a[d].assign(L.a[d].data(), L.a[d].data() + s.size());
+    }
+    diag.assign(L.diag.data(), L.diag.data() + s.size());
+  }
+  void reserve(int m) const {
+    for (auto* v : {&x, &b, &r})
+      if (v->size() != std::size_t(m) * s.size()) v->assign(std::size_t(m) * s.size(), 0.0f);
+  }
+  bool active(std::ptrdiff_t n) const { return diag[std::size_t(n)] > 0; }
+};
+
+// Periodic images of m-valued cells into the ghost layer.
+template <int M, class T>
+void fill_ghosts_block(const Shape& s, const bool periodic[3], T* x) {
+  for (int a = 0; a < 3; ++a) {
+    if (!periodic[a]) continue;
+    const int b = (a + 1) % 3, c = (a + 2) % 3, n = s.n(a);
+    const std::ptrdiff_t sa = s.stride(a), sb = s.stride(b), sc = s.stride(c);
+    for (int kc = 0; kc <= s.n(c) + 1; ++kc)
+      for (int kb = 0; kb <= s.n(b) + 1; ++kb) {
+        T* l = x + (kb * sb + kc * sc) * M;
+        for (int q = 0; q < M; ++q) {
+          l[q] = l[n * sa * M + q];
+          l[(n + 1) * sa * M + q] = l[sa * M + q];
+        }
       }
-  return m;
+  }
 }
 
-double dot_active(const Level& L, const Field& f, const Field& g) {
-  double sum = 0;
-  const Shape& s = L.s;
-#pragma omp parallel for schedule(static) reduction(+ : sum) if (ns::threaded(s))
+// out = A x or b - A x (m values per cell) with the conductances of level L (double or float arrays), zero where
+// inactive. The value type of x, b, out is T.
+template <int M, class C, class T>
+FLAPSTAB_KERNEL void block_residual(const Shape& s, const C* a0, const C* a1, const C* a2, const C* diag, const T* x,
+                                    const T* b, T* out) {
+  const std::ptrdiff_t sy = s.sy, sz = s.sz;
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {
         const std::ptrdiff_t n = s(i, j, k);
-        if (L.active(n)) sum += f[n] * g[n];
+        T* o = out + n * M;
+        const C d = diag[n];
+        if (!(d > 0)) {
+          for (int q = 0; q < M; ++q) o[q] = 0;
+          continue;
+        }
+        const C w0 = a0[n], w1 = a0[n + 1], w2 = a1[n], w3 = a1[n + sy], w4 = a2[n], w5 = a2[n + sz];
+        for (int q = 0; q < M; ++q) {
+          const T ax = T(d) * x[n * M + q] -
+                       (T(w0) * x[(n - 1) * M + q] + T(w1) * x[(n + 1) * M + q] + T(w2) * x[(n - sy) * M + q] +
+                        T(w3) * x[(n + sy) * M + q] + T(w4) * x[(n - sz) * M + q] + T(w5) * x[(n + sz) * M + q]);
+          o[q] = b ? b[n * M + q] - ax : ax;
+        }
       }
-  return sum;
+}
+
+// Red-black Gauss-Seidel on m right-hand sides: colours in the given order, `sweeps` times.
+template <int M>
+FLAPSTAB_KERNEL void block_smooth(const BlockLevel& L, int sweeps, int first_colour) {
+  const Shape& s = L.s;
+  const std::ptrdiff_t sy = s.sy, sz = s.sz;
+  const float *a0 = L.a[0].data(), *a1 = L.a[1].data(), *a2 = L.a[2].data(), *dg = L.diag.data(), *b = L.b.data();
+  float* x = L.x.data();
+  for (int sw = 0; sw < sweeps; ++sw)
+    for (int c = 0; c < 2; ++c) {
+      const int colour = (first_colour + c) % 2;
+      fill_ghosts_block<M>(s, L.periodic, x);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1 + ((j + k + 1 + colour) % 2); i <= s.nx; i += 2) {
+            const std::ptrdiff_t n = s(i, j, k);
+            const float d = dg[n];
+            if (!(d > 0)) continue;
+            const float w0 = a0[n], w1 = a0[n + 1], w2 = a1[n], w3 = a1[n + sy], w4 = a2[n], w5 = a2[n + sz];
+            for (int q = 0; q < M; ++q)
+              x[n * M + q] = (b[n * M + q] + w0 * x[(n - 1) * M + q] + w1 * x[(n + 1) * M + q] +
+                              w2 * x[(n - sy) * M + q] + w3 * x[(n + sy) * M + q] + w4 * x[(n - sz) * M + q] +
+                              w5 * x[(n + sz) * M + q]) /
+                             d;
+          }
+    }
+}
+
+template <int M>
+std::array<double, M> block_max_abs(const BlockLevel& L, const float* f) {
+  std::array<double, M> m{};
+  double* mp = m.data();
+  const Shape& s = L.s;
+#pragma omp parallel for schedule(static) reduction(max : mp[:M]) if (ns::threaded(s))
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) {
+        const std::ptrdiff_t n = s(i, j, k);
+        if (L.active(n))
+          for (int q = 0; q < M; ++q) mp[q] = std::max(mp[q], std::abs(double(f[n * M + q])));
+      }
+  return m;
 }
 
 }  // namespace
@@ -137,40 +208,62 @@ void fill_periodic_ghosts(const Grid& g, Field& x) {
 }
 
 struct NeumannLaplacian::Impl {
-  std::vector<Level> levels;
-  mutable Field r, z, p, q, rhs;
+  std::optional<Level> fine;       // the operator in double (the conjugate gradients apply it)
+  std::vector<BlockLevel> levels;  // the V-cycle's hierarchy in single precision
+  // The conjugate gradients' vectors per right-hand side (r, p, q, b), kept from solve to solve and handed on to the
+  // next sample's operator (take_workspace) instead of allocated and faulted in per sample. The preconditioned
+  // residual z is the V-cycle's own (interleaved, float) solution, read where it is needed.
+  mutable std::vector<std::array<Field, 4>> work;
 
-  // V-cycle on level l: L.x from zero for the right-hand side L.b.
+  // V-cycle on level l for m right-hand sides: L.x from zero for L.b.
+  template <int M>
   void vcycle(std::size_t l) const {
-    const Level& L = levels[l];
-    L.x.fill(0);
+    const BlockLevel& L = levels[l];
+    const Shape& s = L.s;
+    std::fill(L.x.begin(), L.x.end(), 0.0f);
+    const auto residual = [&] {
+      fill_ghosts_block<M>(s, L.periodic, L.x.data());
+      block_residual<M>(s, L.a[0].data(), L.a[1].data(), L.a[2].data(), L.diag.data(), L.x.data(), L.b.data(),
+                        L.r.data());
+    };
     if (l + 1 == levels.size()) {
-      // Coarsest level: symmetric sweeps until the residual falls a hundredfold (or 400 sweeps).
-      L.residual(L.x, L.b, L.r);
-      const double r0 = max_abs_active(L, L.r);
-      for (int it = 0; it < 200 && r0 > 0; ++it) {
-        L.smooth(L.x, L.b, 1, 0);
-        L.smooth(L.x, L.b, 1, 1);
+      // Coarsest level: symmetric sweeps until every residual falls a hundredfold (or 400 sweeps).
+      residual();
+      const std::array<double, M> r0 = block_max_abs<M>(L, L.r.data());
+      if (*std::max_element(r0.begin(), r0.end()) == 0) return;
+      for (int it = 0; it < 200; ++it) {
+        block_smooth<M>(L, 1, 0);
+        block_smooth<M>(L, 1, 1);
         if (it % 10 == 9) {
-          L.residual(L.x, L.b, L.r);
-          if (max_abs_active(L, L.r) <= 1e-2 * r0) break;
+          residual();
+          const std::array<double, M> rn = block_max_abs<M>(L, L.r.data());
+          bool done = true;
+          for (int q = 0; q < M; ++q) done = done && rn[q] <= 1e-2 * r0[q];
+          if (done) break;
         }
       }
       return;
     }
-    L.smooth(L.x, L.b, 2, 0);
-    L.residual(L.x, L.b, L.r);
-    const Level& C = levels[l + 1];
-    C.b.fill(0);
-    const Shape& s = L.s;
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const int I = L.coarsen[0] ? (i + 1) / 2 : i, J = L.coarsen[1] ? (j + 1) / 2 : j,
-                    K = L.coarsen[2] ? (k + 1) / 2 : k;
-          C.b(I, J, K) += L.r(i, j, k);
-        }
-    vcycle(l + 1);
+    block_smooth<M>(L, 2, 0);
+    residual();
+    const BlockLevel& C = levels[l + 1];
+    const Shape& cs = C.s;
+    // Restriction (summed), by coarse plane: the fine planes of one coarse plane belong to it alone.
+#pragma omp parallel for schedule(static) if (ns::threaded(cs))
+    for (int K = 1; K <= cs.nz; ++K) {
+      for (int J = 1; J <= cs.ny; ++J)
+        for (int I = 1; I <= cs.nx; ++I)
+          for (int q = 0; q < M; ++q) C.b[std::size_t(cs(I, J, K) * M + q)] = 0;
+      const int k0 = L.coarsen[2] ? 2 * K - 1 : K, k1 = L.coarsen[2] ? 2 * K : K;
+      for (int k = k0; k <= k1; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const int I = L.coarsen[0] ? (i + 1) / 2 : i, J = L.coarsen[1] ? (j + 1) / 2 : j;
+            const std::ptrdiff_t n = s(i, j, k), nc = cs(I, J, K);
+            for (int q = 0; q < M; ++q) C.b[std::size_t(nc * M + q)] += L.r[std::size_t(n * M + q)];
+          }
+    }
+    vcycle<M>(l + 1);
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
@@ -179,19 +272,230 @@ struct NeumannLaplacian::Impl {
           if (!L.active(n)) continue;
           const int I = L.coarsen[0] ? (i + 1) / 2 : i, J = L.coarsen[1] ? (j + 1) / 2 : j,
                     K = L.coarsen[2] ? (k + 1) / 2 : k;
-          L.x[n] += C.x(I, J, K);
+          const std::ptrdiff_t nc = cs(I, J, K);
+          for (int q = 0; q < M; ++q) L.x[std::size_t(n * M + q)] += C.x[std::size_t(nc * M + q)];
         }
-    L.smooth(L.x, L.b, 2, 1);
+    block_smooth<M>(L, 2, 1);
   }
 
-  // z = M r (one V-cycle from zero).
-  void precondition(const Field& rin, Field& zout) const {
-    const Level& L = levels[0];
-    std::copy(rin.begin(), rin.end(), L.b.begin());
-    vcycle(0);
-    std::copy(L.x.begin(), L.x.end(), zout.begin());
-  }
+  template <int M>
+  void solve_block(const std::vector<Field*>& xs, const std::vector<const Field*>& bs, double rtol, int max_iterations,
+                   LaplaceStats* stats) const;
 };
+
+// Loops over the active cells plane by plane (k outermost, in parallel) and, inside a plane, over the m right-hand
+// sides: a plane's conductances are read from memory once and from cache for the other m - 1.
+template <class F>
+void for_planes(const Shape& s, F&& body) {
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+  for (int k = 1; k <= s.nz; ++k) body(k);
+}
+
+template <int M>
+void NeumannLaplacian::Impl::solve_block(const std::vector<Field*>& xs, const std::vector<const Field*>& bs,
+                                         double rtol, int max_iterations, LaplaceStats* stats) const {
+  const Level& L = *fine;
+  const Shape& s = L.s;
+  const double* dg = L.diag.data();
+  const double *a0 = L.a[0].data(), *a1 = L.a[1].data(), *a2 = L.a[2].data();
+  const std::ptrdiff_t sy = s.sy, sz = s.sz;
+  if (work.size() < std::size_t(M)) work.resize(std::size_t(M));
+  for (int q = 0; q < M; ++q)
+    for (Field& f : work[std::size_t(q)])
+      if (!(f.shape() == s)) f = Field(s);
+  for (const BlockLevel& l : levels) l.reserve(M);
+  double *X[M], *R[M], *P[M], *Q[M], *B[M];
+  for (int q = 0; q < M; ++q) {
+    X[q] = xs[std::size_t(q)]->data();
+    auto& w = work[std::size_t(q)];
+    R[q] = w[0].data(), P[q] = w[1].data(), Q[q] = w[2].data(), B[q] = w[3].data();
+  }
+  // b without its mean over the active cells (the compatible part), x zero where inactive.
+  std::array<double, M> sum{};
+  std::size_t count = 0;
+  {
+    double* sp = sum.data();
+#pragma omp parallel for schedule(static) reduction(+ : sp[:M], count) if (ns::threaded(s))
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const std::ptrdiff_t n = s(i, j, k);
+          if (!(dg[n] > 0)) continue;
+          ++count;
+          for (int q = 0; q < M; ++q) sp[q] += (*bs[std::size_t(q)])[n];
+        }
+  }
+  for_planes(s, [&](int k) {
+    for (int q = 0; q < M; ++q) {
+      const double* bin = bs[std::size_t(q)]->data();
+      const double mean = count > 0 ? sum[std::size_t(q)] / double(count) : 0.0;
+      for (int j = 0; j <= s.ny + 1; ++j)
+        for (int i = 0; i <= s.nx + 1; ++i) {
+          const std::ptrdiff_t n = s(i, j, k);
+          const bool on = dg[n] > 0;
+          B[q][n] = on ? bin[n] - mean : 0.0;
+          if (!on) X[q][n] = 0;
+        }
+    }
+  });
+  for (int q = 0; q < M; ++q)  // the ghost planes (read with zero conductance across the domain's faces)
+    for (const int k : {0, s.nz + 1})
+      for (int j = 0; j <= s.ny + 1; ++j)
+        for (int i = 0; i <= s.nx + 1; ++i) X[q][s(i, j, k)] = B[q][s(i, j, k)] = 0;
+  // out_q = b_q - A x_q (b null: A x_q) for every q; with dot, also sum over the cells of p_q . out_q.
+  const auto apply = [&](double* const* x, double* const* b, double* const* out, double* dot) {
+    for (int q = 0; q < M; ++q) fill_ghosts(s, L.periodic, x[q]);
+    std::array<double, M> acc{};
+    double* ap = acc.data();
+#pragma omp parallel for schedule(static) reduction(+ : ap[:M]) if (ns::threaded(s))
+    for (int k = 1; k <= s.nz; ++k)
+      for (int q = 0; q < M; ++q) {
+        const double* xq = x[q];
+        double* oq = out[q];
+        const double* bq = b ? b[q] : nullptr;
+        double local = 0;
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const std::ptrdiff_t n = s(i, j, k);
+            const double ax = dg[n] * xq[n] - (a0[n] * xq[n - 1] + a0[n + 1] * xq[n + 1] + a1[n] * xq[n - sy] +
+                                                a1[n + sy] * xq[n + sy] + a2[n] * xq[n - sz] + a2[n + sz] * xq[n + sz]);
+            const double v = dg[n] > 0 ? (bq ? bq[n] - ax : ax) : 0.0;
+            oq[n] = v;
+            local += xq[n] * v;
+          }
+        ap[q] += local;
+      }
+    if (dot)
+      for (int q = 0; q < M; ++q) dot[q] = acc[std::size_t(q)];
+  };
+  const auto max_abs = [&](double* const* f) {
+    std::array<double, M> m{};
+    double* mp = m.data();
+#pragma omp parallel for schedule(static) reduction(max : mp[:M]) if (ns::threaded(s))
+    for (int k = 1; k <= s.nz; ++k)
+      for (int q = 0; q < M; ++q)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const std::ptrdiff_t n = s(i, j, k);
+            if (dg[n] > 0) mp[q] = std::max(mp[q], std::abs(f[q][n]));
+          }
+    return m;
+  };
+  // z = M r: one V-cycle on the residuals in the interleaved float right-hand side V.b (written where r is updated),
+  // z read from V.x.
+  const BlockLevel& V = levels[0];
+  float* vb = V.b.data();
+  const float* z = V.x.data();
+  apply(X, B, R, nullptr);
+  std::array<double, M> bnorm = max_abs(B), res = max_abs(R), target{};
+  std::array<bool, M> done{};
+  bool all = true;
+  for (int q = 0; q < M; ++q) {
+    stats[q] = LaplaceStats{};
+    stats[q].initial_residual = stats[q].residual = res[q];
+    target[q] = rtol * bnorm[q];
+    done[q] = bnorm[q] == 0 || res[q] <= target[q];
+    stats[q].converged = done[q];
+    all = all && done[q];
+  }
+  if (!all) {
+    for_planes(s, [&](int k) {
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const std::ptrdiff_t n = s(i, j, k);
+          for (int q = 0; q < M; ++q) vb[n * M + q] = float(R[q][n]);
+        }
+    });
+    vcycle<M>(0);
+    std::array<double, M> rz{};
+    {
+      double* rp = rz.data();
+#pragma omp parallel for schedule(static) reduction(+ : rp[:M]) if (ns::threaded(s))
+      for (int k = 1; k <= s.nz; ++k)
+        for (int q = 0; q < M; ++q)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int i = 1; i <= s.nx; ++i) {
+              const std::ptrdiff_t n = s(i, j, k);
+              const bool on = dg[n] > 0;
+              P[q][n] = on ? double(z[n * M + q]) : 0.0;
+              if (on) rp[q] += R[q][n] * double(z[n * M + q]);
+            }
+    }
+    for (int it = 1; it <= max_iterations; ++it) {
+      std::array<double, M> pq{}, alpha{};
+      apply(P, nullptr, Q, pq.data());
+      for (int q = 0; q < M; ++q) {
+        if (!done[q] && !(pq[q] > 0)) done[q] = true;  // breakdown: stop this one, not converged
+        alpha[q] = done[q] ? 0.0 : rz[q] / pq[q];
+      }
+      {
+        double* mp = res.data();
+        for (int q = 0; q < M; ++q) mp[q] = 0;
+#pragma omp parallel for schedule(static) reduction(max : mp[:M]) if (ns::threaded(s))
+        for (int k = 1; k <= s.nz; ++k)
+          for (int q = 0; q < M; ++q) {
+            if (alpha[q] == 0) continue;
+            double local = 0;
+            for (int j = 1; j <= s.ny; ++j)
+              for (int i = 1; i <= s.nx; ++i) {
+                const std::ptrdiff_t n = s(i, j, k);
+                X[q][n] += alpha[q] * P[q][n];
+                R[q][n] -= alpha[q] * Q[q][n];
+                vb[n * M + q] = float(R[q][n]);
+                local = std::max(local, std::abs(R[q][n]));
+              }
+            mp[q] = std::max(mp[q], local);
+          }
+      }
+      all = true;
+      for (int q = 0; q < M; ++q) {
+        if (!done[q]) {
+          stats[q].iterations = it;
+          stats[q].residual = res[q];
+          if (res[q] <= target[q]) done[q] = stats[q].converged = true;
+        }
+        all = all && done[q];
+      }
+      if (all) break;
+      vcycle<M>(0);
+      // flexible (Polak-Ribiere) beta: the coarsest level is relaxed to a tolerance, so M varies slightly;
+      // z . (r - r_old) = -alpha z . q (the residual changed by -alpha q), so no copy of the old residual is kept
+      std::array<double, M> num{}, rzn{};
+      {
+        double *np = num.data(), *rp = rzn.data();
+#pragma omp parallel for schedule(static) reduction(+ : np[:M], rp[:M]) if (ns::threaded(s))
+        for (int k = 1; k <= s.nz; ++k)
+          for (int q = 0; q < M; ++q) {
+            if (done[q]) continue;
+            for (int j = 1; j <= s.ny; ++j)
+              for (int i = 1; i <= s.nx; ++i) {
+                const std::ptrdiff_t n = s(i, j, k);
+                if (!(dg[n] > 0)) continue;
+                const double zn = z[n * M + q];
+                np[q] -= alpha[q] * zn * Q[q][n];
+                rp[q] += R[q][n] * zn;
+              }
+          }
+      }
+      std::array<double, M> beta{};
+      for (int q = 0; q < M; ++q) {
+        beta[q] = done[q] ? 0.0 : num[q] / rz[q];
+        rz[q] = rzn[q];
+      }
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int k = 1; k <= s.nz; ++k)
+        for (int q = 0; q < M; ++q) {
+          if (done[q]) continue;
+          for (int j = 1; j <= s.ny; ++j)
+            for (int i = 1; i <= s.nx; ++i) {
+              const std::ptrdiff_t n = s(i, j, k);
+              P[q][n] = dg[n] > 0 ? double(z[n * M + q]) + beta[q] * P[q][n] : 0.0;
+            }
+        }
+    }
+  }
+  for (int q = 0; q < M; ++q) fill_ghosts(s, L.periodic, X[q]);
+}
 
 NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : impl_(std::make_unique<Impl>()) {
   if (!(geo.shape == g.shape())) throw std::invalid_argument("force partitioning: a fluid geometry of another grid");
@@ -199,7 +503,7 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     if (g.axis[std::size_t(d)].periodic && g.axis[std::size_t(d)].n % 2 != 0)
       throw std::invalid_argument("force partitioning: a periodic axis needs an even number of cells (axis " +
                                   std::to_string(d) + " has " + std::to_string(g.axis[std::size_t(d)].n) + ")");
-  auto& levels = impl_->levels;
+  std::vector<Level> levels;
   levels.emplace_back(g.axis);
   {
     Level& L = levels.back();
@@ -265,8 +569,8 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     C.finish();
     levels.push_back(std::move(C));
   }
-  const Shape s = levels[0].s;
-  for (Field* f : {&impl_->r, &impl_->z, &impl_->p, &impl_->q, &impl_->rhs}) *f = Field(s);
+  for (const Level& l : levels) impl_->levels.emplace_back(l);
+  impl_->fine.emplace(std::move(levels[0]));
 }
 
 NeumannLaplacian::~NeumannLaplacian() = default;
@@ -275,103 +579,57 @@ NeumannLaplacian& NeumannLaplacian::operator=(NeumannLaplacian&&) noexcept = def
 
 int NeumannLaplacian::levels() const { return int(impl_->levels.size()); }
 
-double NeumannLaplacian::conductance(int d, int i, int j, int k) const { return impl_->levels[0].a[d](i, j, k); }
+double NeumannLaplacian::conductance(int d, int i, int j, int k) const { return impl_->fine->a[d](i, j, k); }
 bool NeumannLaplacian::active(int i, int j, int k) const {
-  const Level& L = impl_->levels[0];
+  const Level& L = *impl_->fine;
   return L.active(L.s(i, j, k));
 }
 
 std::size_t NeumannLaplacian::bytes() const {
-  std::size_t b = 0;
-  for (const Level& L : impl_->levels) b += 8 * L.s.size() * sizeof(double);
-  return b + 5 * impl_->levels[0].s.size() * sizeof(double);  // r, z, p, q, rhs
+  const Impl& m = *impl_;
+  std::size_t b = 4 * m.fine->s.size() * sizeof(double);  // the double operator: a[3], diag
+  for (const BlockLevel& L : m.levels) b += (4 * L.s.size() + L.x.size() + L.b.size() + L.r.size()) * sizeof(float);
+  return b + 4 * m.work.size() * m.fine->s.size() * sizeof(double);
 }
 
-void NeumannLaplacian::apply(Field& x, Field& Ax) const { impl_->levels[0].apply(x, Ax); }
+void NeumannLaplacian::take_workspace(NeumannLaplacian& previous) {
+  if (!previous.impl_ || !(previous.impl_->fine->s == impl_->fine->s)) return;
+  impl_->work = std::move(previous.impl_->work);
+  for (std::size_t l = 0; l < std::min(impl_->levels.size(), previous.impl_->levels.size()); ++l) {
+    BlockLevel &to = impl_->levels[l], &from = previous.impl_->levels[l];
+    if (!(to.s == from.s)) break;
+    to.x = std::move(from.x), to.b = std::move(from.b), to.r = std::move(from.r);
+  }
+}
 
-LaplaceStats NeumannLaplacian::solve(Field& x, const Field& bin, double rtol, int max_iterations) const {
-  Impl& m = *impl_;
-  const Level& L = m.levels[0];
-  const Shape& s = L.s;
-  LaplaceStats st;
-  // b without its mean over the active cells (the compatible part), x zero where inactive
-  m.rhs = bin;  // the work array's storage is reused from call to call
-  Field& b = m.rhs;
-  double sum = 0;
-  std::size_t count = 0;
-  for (int k = 1; k <= s.nz; ++k)
-    for (int j = 1; j <= s.ny; ++j)
-      for (int i = 1; i <= s.nx; ++i) {
-        const std::ptrdiff_t n = s(i, j, k);
-        if (L.active(n)) {
-          sum += b[n];
-          ++count;
-        } else {
-          b[n] = 0;
-          x[n] = 0;
-        }
-      }
-  if (count > 0)
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const std::ptrdiff_t n = s(i, j, k);
-          if (L.active(n)) b[n] -= sum / double(count);
-        }
-  const double bnorm = max_abs_active(L, b);
-  L.residual(x, b, m.r);
-  st.initial_residual = st.residual = max_abs_active(L, m.r);
-  const double target = rtol * bnorm;
-  if (bnorm == 0 || st.residual <= target) {
-    st.converged = true;
-    return st;
-  }
-  m.precondition(m.r, m.z);
-  m.p = m.z;
-  double rz = dot_active(L, m.r, m.z);
-  for (int it = 1; it <= max_iterations; ++it) {
-    L.apply(m.p, m.q);
-    const double pq = dot_active(L, m.p, m.q);
-    if (!(pq > 0)) break;
-    const double alpha = rz / pq;
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const std::ptrdiff_t n = s(i, j, k);
-          if (!L.active(n)) continue;
-          x[n] += alpha * m.p[n];
-          m.r[n] -= alpha * m.q[n];
-        }
-    st.iterations = it;
-    st.residual = max_abs_active(L, m.r);
-    if (st.residual <= target) {
-      st.converged = true;
-      break;
+void NeumannLaplacian::apply(Field& x, Field& Ax) const { impl_->fine->apply(x, Ax); }
+
+LaplaceStats NeumannLaplacian::solve(Field& x, const Field& b, double rtol, int max_iterations) const {
+  return solve({&x}, {&b}, rtol, max_iterations).front();
+}
+
+std::vector<LaplaceStats> NeumannLaplacian::solve(const std::vector<Field*>& xs, const std::vector<const Field*>& bs,
+                                                  double rtol, int max_iterations) const {
+  if (xs.size() != bs.size()) throw std::invalid_argument("force partitioning: as many solutions as right-hand sides");
+  std::vector<LaplaceStats> stats(xs.size());
+  for (std::size_t first = 0; first < xs.size(); first += max_block) {
+    const std::size_t m = std::min(max_block, xs.size() - first);
+    const std::vector<Field*> x(xs.begin() + std::ptrdiff_t(first), xs.begin() + std::ptrdiff_t(first + m));
+    const std::vector<const Field*> b(bs.begin() + std::ptrdiff_t(first), bs.begin() + std::ptrdiff_t(first + m));
+    LaplaceStats* st = stats.data() + first;
+    const Impl& I = *impl_;
+    switch (m) {
+      case 1: I.solve_block<1>(x, b, rtol, max_iterations, st); break;
+      case 2: I.solve_block<2>(x, b, rtol, max_iterations, st); break;
+      case 3: I.solve_block<3>(x, b, rtol, max_iterations, st); break;
+      case 4: I.solve_block<4>(x, b, rtol, max_iterations, st); break;
+      case 5: I.solve_block<5>(x, b, rtol, max_iterations, st); break;
+      case 6: I.solve_block<6>(x, b, rtol, max_iterations, st); break;
+      case 7: I.solve_block<7>(x, b, rtol, max_iterations, st); break;
+      default: I.solve_block<8>(x, b, rtol, max_iterations, st); break;
     }
-    m.precondition(m.r, m.z);
-    // flexible (Polak-Ribiere) beta: the coarsest level is relaxed to a tolerance, so M varies slightly;
-    // z . (r - r_old) = -alpha z . q (the residual changed by -alpha q), so no copy of the old residual is kept
-    double num = 0;
-#pragma omp parallel for schedule(static) reduction(+ : num) if (ns::threaded(s))
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const std::ptrdiff_t n = s(i, j, k);
-          if (L.active(n)) num -= alpha * m.z[n] * m.q[n];
-        }
-    const double beta = num / rz;
-    rz = dot_active(L, m.r, m.z);
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int i = 1; i <= s.nx; ++i) {
-          const std::ptrdiff_t n = s(i, j, k);
-          m.p[n] = L.active(n) ? m.z[n] + beta * m.p[n] : 0;
-        }
   }
-  fill_ghosts(s, L.periodic, x.data());
-  return st;
+  return stats;
 }
 
 }  // namespace flapstab::fpm

@@ -9,8 +9,9 @@
 // The discrete Green identity sum_c phi_c (A phi)_c = sum_open a_f (phi_c - phi_nb)^2 holds exactly, so the
 // partition's discrete integrals inherit the continuous identities (docs/theory).
 //
-// Solver: conjugate gradients preconditioned by a geometric multigrid V-cycle (flexible: the coarsest level is
-// relaxed to a tolerance). Coarse conductances sum the fine faces' open area over the coarse centre spacing,
+// Solver: conjugate gradients in double precision preconditioned by a geometric multigrid V-cycle in single
+// precision (flexible: the coarsest level is relaxed to a tolerance, and the V-cycle rounds to float), several
+// right-hand sides at once. Coarse conductances sum the fine faces' open area over the coarse centre spacing,
 // a_C = sum_f a_f df_f / df_C (the coarse-grid discretisation where everything is open, so walls coarsen as
 // their open fraction); piecewise-constant prolongation, summed restriction, red-black Gauss-Seidel smoothing.
 #pragma once
@@ -44,6 +45,13 @@ class NeumannLaplacian {
   // max|b - A x| <= rtol max|b|. b must be compatible (sum over each connected fluid region zero); its mean over
   // the active cells is removed first. Inactive cells (solid, or fluid without an open face) get x = 0.
   LaplaceStats solve(Field& x, const Field& b, double rtol = 1e-8, int max_iterations = 500) const;
+  // The same for several right-hand sides at once (each to its own tolerance, with its own statistics): they share
+  // the operator, so every sweep of the preconditioner reads the conductances once for up to max_block of them.
+  static constexpr std::size_t max_block = 8;
+  std::vector<LaplaceStats> solve(const std::vector<Field*>& xs, const std::vector<const Field*>& bs,
+                                  double rtol = 1e-8, int max_iterations = 500) const;
+  // Takes over the work arrays of an operator on the same grid (the previous sample's), instead of allocating.
+  void take_workspace(NeumannLaplacian& previous);
   // (A x) on the cells; x's periodic ghosts are refreshed first.
   void apply(Field& x, Field& Ax) const;
   // Conductance a_f of face I (the lower face of cell I) along axis d; 0 where closed.

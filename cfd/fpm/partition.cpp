@@ -92,7 +92,12 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
   const Grid& g = *grid_;
   geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples));
   const FluidGeometry& o = *geometry_;
-  const NeumannLaplacian L(g, o);
+  {
+    auto next = std::make_unique<NeumannLaplacian>(g, o);
+    if (laplace_) next->take_workspace(*laplace_);
+    laplace_ = std::move(next);
+  }
+  const NeumannLaplacian& L = *laplace_;
   const Shape s = g.shape();
   // the domain's faces next to active (fluid) cells
   outer_.clear();
@@ -123,10 +128,14 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
     for (int k : potentials)
       if (!(a[std::size_t(k)].shape() == s)) a[std::size_t(k)] = Field(s);
   reports_.clear();
-  Field b(s);
+  // Every right-hand side first: the potentials of one sample share the operator and are solved together.
+  std::vector<Field> rhs;
+  std::vector<Field*> xs;
+  std::vector<const Field*> bs;
+  rhs.reserve(std::size_t(parts) * potentials.size());
   for (int p = 0; p < parts; ++p)
     for (int k : potentials) {
-      b.fill(0);
+      Field& b = rhs.emplace_back(s);
       double total = 0, magnitude = 0;
       for (const auto& c : o.cuts) {
         if (c.part != p) continue;
@@ -144,26 +153,32 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       r.component = k;
       r.imbalance = magnitude > 0 ? std::abs(total) / magnitude : 0.0;
       r.pocket_cells = o.pocket_cells;
-      Field& phi = phi_[std::size_t(p)][std::size_t(k)];
-      r.stats = L.solve(phi, b, opt_.rtol, opt_.max_iterations);
-      if (!r.stats.converged) {  // the previous potential was a poor start (or not finite): once more from zero
-        phi.fill(0);
-        const int before = r.stats.iterations;
-        r.stats = L.solve(phi, b, opt_.rtol, 2 * opt_.max_iterations);
-        r.stats.iterations += before;
-      }
-      // phi -> 0 far away: its area-weighted mean over the cells on the domain's faces is zero.
-      double mean = 0;
-      if (outer_area > 0) {
-        for (const auto& f : outer) mean += phi[f.cell] * f.area / outer_area;
-        for (int kk = 1; kk <= s.nz; ++kk)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int i = 1; i <= s.nx; ++i)
-              if (L.active(i, j, kk)) phi(i, j, kk) -= mean;
-      }
-      fill_periodic_ghosts(g, phi);
       reports_.push_back(r);
+      xs.push_back(&phi_[std::size_t(p)][std::size_t(k)]);
+      bs.push_back(&b);
     }
+  const std::vector<LaplaceStats> stats = L.solve(xs, bs, opt_.rtol, opt_.max_iterations);
+  for (std::size_t m = 0; m < xs.size(); ++m) {
+    PotentialReport& r = reports_[m];
+    Field& phi = *xs[m];
+    r.stats = stats[m];
+    if (!r.stats.converged) {  // the previous potential was a poor start (or not finite): once more from zero
+      phi.fill(0);
+      const int before = r.stats.iterations;
+      r.stats = L.solve(phi, *bs[m], opt_.rtol, 2 * opt_.max_iterations);
+      r.stats.iterations += before;
+    }
+    // phi -> 0 far away: its area-weighted mean over the cells on the domain's faces is zero.
+    double mean = 0;
+    if (outer_area > 0) {
+      for (const auto& f : outer) mean += phi[f.cell] * f.area / outer_area;
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i)
+            if (L.active(i, j, kk)) phi(i, j, kk) -= mean;
+    }
+    fill_periodic_ghosts(g, phi);
+  }
   return reports_;
 }
 

@@ -112,6 +112,7 @@ class ForcePartition {
   const Grid* grid_;
   FpmOptions opt_;
   std::unique_ptr<FluidGeometry> geometry_;
+  std::unique_ptr<NeumannLaplacian> laplace_;  // the last update's operator (its work arrays go to the next one)
   std::vector<std::array<Field, 7>> phi_;  // per part: the six components, then the power potential
   std::vector<PotentialReport> reports_;
   std::vector<double> q_;                   // last partition's Q at the cell centres
