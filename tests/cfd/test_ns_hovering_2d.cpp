@@ -121,6 +121,10 @@ Hovering2dResult run(double cells_per_chord, int span_cells = 2) {
   c.cells_per_chord = cells_per_chord;
   c.span_cells = span_cells;
   if (const char* v = std::getenv("H2D_CYCLES")) c.cycles = std::atof(v);
+  if (const char* v = std::getenv("H2D_HALF_WIDTH")) c.half_width = std::atof(v);
+  if (const char* v = std::getenv("H2D_RE")) c.reynolds = std::atof(v);
+  if (const char* v = std::getenv("H2D_THICKNESS")) c.thickness = std::atof(v);
+  if (const char* v = std::getenv("H2D_STRETCH")) c.stretch_ratio = std::atof(v);
   return run_hovering_2d(c);
 }
 
@@ -129,7 +133,8 @@ int env_int(const char* name, int fallback) {
   return v ? std::atoi(v) : fallback;
 }
 
-// Any grid (H2D_CPC cells per chord, H2D_NZ span cells, H2D_CYCLES periods), printed, not asserted.
+// Any grid (H2D_CPC cells per chord, H2D_NZ span cells, H2D_CYCLES periods) and case (H2D_HALF_WIDTH of the walled
+// box, H2D_RE, H2D_THICKNESS of the chord, H2D_STRETCH ratio outside the fine box), printed, not asserted.
 TEST(Hovering2d, DISABLED_Probe) {
   compare(run(env_int("H2D_CPC", 16), env_int("H2D_NZ", 2)));
 }
