@@ -215,9 +215,14 @@ void ProgressLog::on_step(const Simulation& sim, const StepReport& r) {
     for (const auto& st : sim.solver().poisson_stats()) iters += st.cycles;
     const double per = std::chrono::duration<double>(now - start_).count() / double(std::max<long>(1, warm_steps_));
     const double T = sim.plan().period;
-    *log_ << fmt::format("  step {:>7}  t/T {:8.4f}  cycle {:>3}  dt {:.3e} s  CFL {:.3f}  Poisson {:>2} it  ETA {}\n",
+    const long bad = sim.solver().unconverged_pressure_solves();
+    const std::string unconverged =
+        bad > 0 ? fmt::format("  ({} pressure solves above tolerance so far, worst {:.3g} x)", bad,
+                              sim.solver().worst_pressure_residual())
+                : std::string();
+    *log_ << fmt::format("  step {:>7}  t/T {:8.4f}  cycle {:>3}  dt {:.3e} s  CFL {:.3f}  Poisson {:>2} it  ETA {}{}\n",
                          sim.step(), r.time / T, std::max(1, int(std::ceil(r.time / T - 1e-9))), r.dt, r.cfl, iters,
-                         fmt_seconds(per * steps_left(sim, r.dt)));
+                         fmt_seconds(per * steps_left(sim, r.dt)), unconverged);
   }
 }
 

@@ -38,6 +38,7 @@ PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool 
   }
   const double target = std::max(opt.rtol * bmax, opt.atol);
   PoissonStats st;
+  st.target = target;
   st.residual = st.initial_residual = bmax;
   Field& r = b;
   if (guess) {  // r = b - L x

@@ -22,6 +22,7 @@ struct PoissonStats {
   int stationary = 0;            // of which plain multigrid iterations (the rest flexible CG)
   double initial_residual = 0;   // max-norm, after removing the null space from b
   double residual = 0;
+  double target = 0;             // the residual asked for: max(rtol max|b|, atol)
   bool converged = false;
   bool breakdown = false;        // a non-finite CG step (NaN or infinite values in r): stopped without updating x
   double factor() const;         // mean residual reduction per iteration

@@ -80,6 +80,9 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
                   {"seconds_per_step", res.seconds_per_step},
                   {"ns_per_cell_per_step", 1e9 * res.seconds_per_step / res.cells},
                   {"threads", omp_get_max_threads()}};
+  j["pressure_solves"] = {{"not_converged", sim.solver().unconverged_pressure_solves()},
+                          {"worst_residual_over_tolerance", sim.solver().worst_pressure_residual()},
+                          {"note", "solves of this process that stopped at the iteration limit above their tolerance"}};
   // The result: mean loads over the last complete wingbeat, the start-up wingbeat excluded (cfd_run_result).
   const CfdRunResult& r = res.result;
   auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };

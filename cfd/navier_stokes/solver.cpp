@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <fmt/format.h>
 
 namespace flapstab::ns {
 
@@ -60,6 +61,22 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
 }
 
+namespace {
+// Largest ratio of a cell's longest to its shortest side.
+double max_aspect_ratio(const Grid& g) {
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {0, 0, 0};
+  for (int a = 0; a < 3; ++a)
+    for (int i = 1; i <= g.axis[std::size_t(a)].n; ++i) {
+      lo[a] = std::min(lo[a], g.axis[std::size_t(a)].dc[std::size_t(i)]);
+      hi[a] = std::max(hi[a], g.axis[std::size_t(a)].dc[std::size_t(i)]);
+    }
+  double r = 1;  // over the tensor-product cells: the longest side of one axis against the shortest of another
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) r = std::max(r, hi[a] / lo[b]);
+  return r;
+}
+}  // namespace
+
 double Solver::stable_dt() const { return time_step(max_rate(grid_, u_)); }
 
 // conv: max over cells of sum_a |u_a| / dx_a.
@@ -96,9 +113,23 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   popt.atol = std::max(popt.atol, 1e-12 * rate_ / adt);
   Field& phi = phi_[stage_];
   stats_.push_back(poisson_.solve(phi, div_, popt, guess_));
-  if (stats_.back().breakdown)
+  const PoissonStats& ps = stats_.back();
+  if (ps.breakdown)
     throw std::runtime_error("navier_stokes solver: the pressure solve broke down on non-finite values at t = " +
                              std::to_string(t_stage) + " (time step too large? CFL was " + std::to_string(cfl(dt)) + ")");
+  ++solves_;
+  if (!ps.converged) {
+    ++unconverged_;
+    worst_unconverged_ = std::max(worst_unconverged_, ps.target > 0 ? ps.residual / ps.target : 0.0);
+    if (ps.residual >= ps.initial_residual)
+      throw std::runtime_error(fmt::format(
+          "navier_stokes solver: the pressure solve diverged at t = {:.6g}: after {} multigrid iterations the "
+          "divergence residual is {:.3g}, no smaller than at the start ({:.3g}); {} of the {} pressure solves so far "
+          "stopped above their tolerance. The multigrid does not converge on this grid: cells much longer in one "
+          "direction than in another (largest aspect ratio here {:.3g}) defeat its point smoother; reduce the "
+          "stretching or the domain size, or refine the coarse direction",
+          t_stage, ps.cycles, ps.residual, ps.initial_residual, unconverged_, solves_, max_aspect_ratio(grid_)));
+  }
   project(grid_, ustar_, phi, u_, p_, adt);
   fill_ghosts(p_, pbc_);
   fill_velocity_ghosts(u_, bc_, t_stage, &grid_);

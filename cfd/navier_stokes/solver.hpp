@@ -60,6 +60,11 @@ class Solver {
   double diffusion_number(double dt) const { return dt * max_viscous_rate(grid_, opt_.nu); }
   // Poisson statistics of the last step's projections (one per stage).
   const std::vector<PoissonStats>& poisson_stats() const { return stats_; }
+  // Pressure solves since construction that stopped at max_cycles above their tolerance (the step goes on with the
+  // divergence they leave), and the largest residual / tolerance among them (0 when none). A solve that ends no
+  // better than it started throws instead: the pressure diverges.
+  long unconverged_pressure_solves() const { return unconverged_; }
+  double worst_pressure_residual() const { return worst_unconverged_; }
   std::size_t bytes() const;  // memory held by the solver
 
   const Grid& grid() const { return grid_; }
@@ -93,9 +98,11 @@ class Solver {
   StageHooks* hooks_ = nullptr;
   std::vector<PoissonStats> stats_;
   double t_ = 0;
-  double rate_ = 0;
+  double rate_ = 0;  // velocity-gradient scale of the current step (1/s), for the Poisson round-off floor
   int stage_ = 0;
-  bool guess_ = false;  // phi_ holds the previous step's increments  // velocity-gradient scale of the current step (1/s), for the Poisson round-off floor
+  bool guess_ = false;  // phi_ holds the previous step's increments
+  long unconverged_ = 0, solves_ = 0;
+  double worst_unconverged_ = 0;
 };
 
 }  // namespace flapstab::ns

@@ -223,6 +223,38 @@ TEST(NavierStokesSolver, RejectsUnstableFixedStep) {
   EXPECT_THROW(Solver(periodic_grid(a, a, 2), Boundaries::all(BC::periodic), opt), std::invalid_argument);
 }
 
+// A pressure solve that stops at its iteration limit above its tolerance is counted (the run reports it); one that
+// ends no better than it started (here: no iteration allowed) stops the step with a message that says so and names
+// the grid's cell aspect ratio. Before, both went on silently (a 2-D slab in a large box diverged 150 steps later
+// as "non-finite values", docs/validation.md "2-D hovering wing").
+TEST(NavierStokesSolver, UnconvergedPressureSolvesAreCountedAndDivergedOnesStop) {
+  const Axis a = Axis::uniform(0, 2 * pi, 16, true);
+  SolverOptions opt;
+  opt.nu = nu;
+  opt.dt = 0.05;
+  opt.poisson.rtol = 1e-14;
+  opt.poisson.max_cycles = 1;
+  {
+    Solver s(periodic_grid(a, a, 2), Boundaries::all(BC::periodic), opt);
+    s.initialise([](double x, double y, double) { return exact::taylor_green_velocity(x, y, 0, nu); });
+    EXPECT_EQ(s.unconverged_pressure_solves(), 0);
+    s.step();
+    EXPECT_EQ(s.unconverged_pressure_solves(), 3);  // one per stage
+    EXPECT_GT(s.worst_pressure_residual(), 1.0);
+  }
+  opt.poisson.max_cycles = 0;
+  Solver s(periodic_grid(a, a, 2), Boundaries::all(BC::periodic), opt);
+  s.initialise([](double x, double y, double) { return exact::taylor_green_velocity(x, y, 0, nu); });
+  try {
+    s.step();
+    FAIL() << "expected an exception";
+  } catch (const std::runtime_error& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("pressure solve diverged"), std::string::npos) << w;
+    EXPECT_NE(w.find("aspect ratio"), std::string::npos) << w;
+  }
+}
+
 // Converged versions (docs/validation.md): run with
 //   ./build/tests/test_cfd --gtest_also_run_disabled_tests --gtest_filter='NavierStokesConverged*'
 // Full cubes 16^3 .. 128^3 (the z-independent solution on 3D grids), dt at the stability limits; stretched
