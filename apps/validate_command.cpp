@@ -116,6 +116,19 @@ int run_validate_hovering_2d(const ValidateCommandOptions& o) {
                         {"chord_points", r.normalisation.chord_points},
                         {"rule", "maxima over chord points and a cycle of the quasi-steady force 1/2 |v|^2 C c, "
                                  "C_L = 1.2 sin 2 alpha_e, C_D = 1.4 - cos 2 alpha_e"}};
+  {
+    // The same means under the other convention found with these reference curves (cuIBM's): 1/2 U_max^2 c x 1.2, x 1.4.
+    const double fl = r.normalisation.lift / r.normalisation.lift_translational,
+                 fd = r.normalisation.drag / r.normalisation.drag_translational;
+    std::vector<double> l, d;
+    for (double v : r.cycle_cl) l.push_back(v * fl);
+    for (double v : r.cycle_cd) d.push_back(v * fd);
+    j["normalisation"]["translational"] = {
+        {"lift_per_span", r.normalisation.lift_translational}, {"drag_per_span", r.normalisation.drag_translational},
+        {"rule", "1/2 U_max^2 c x 1.2 (lift), x 1.4 (drag): the centre's translation at mid-stroke (barbagroup's cuIBM "
+                 "normalises this case so); the reference curves do not say which rule they carry"},
+        {"cycle_means", {{"C_L", l}, {"C_D", d}}}};
+  }
   j["cycle_means"] = {{"C_L", r.cycle_cl}, {"C_D", r.cycle_cd}, {"C_L_surface_integral", r.cycle_cl_surface},
                       {"C_D_surface_integral", r.cycle_cd_surface}};
   j["axes"] = "x horizontal (stroke), y vertical (up), z span (periodic); lift = +y force, drag = x force against "
@@ -170,9 +183,14 @@ int run_validate_hovering_2d(const ValidateCommandOptions& o) {
   if (!o.quiet) {
     fmt::print("2-D hovering wing (Wang, Birch & Dickinson 2004), c/{:g}: {} x {} x {} cells, {} steps, {:.0f} s\n",
                c.cells_per_chord, r.nx, r.ny, r.nz, r.steps, r.seconds);
-    fmt::print("  quasi-steady maxima: L_max {:.4f}, D_max {:.4f} per unit span\n", r.normalisation.lift, r.normalisation.drag);
+    fmt::print("  quasi-steady maxima: L_max {:.4f}, D_max {:.4f} per unit span (translational: {:.4f}, {:.4f})\n",
+               r.normalisation.lift, r.normalisation.drag, r.normalisation.lift_translational,
+               r.normalisation.drag_translational);
+    const double fl = r.normalisation.lift / r.normalisation.lift_translational,
+                 fd = r.normalisation.drag / r.normalisation.drag_translational;
     for (std::size_t k = 0; k < r.cycle_cl.size(); ++k)
-      fmt::print("  cycle {}: C_L {:.3f}  C_D {:.3f}\n", k + 1, r.cycle_cl[k], r.cycle_cd[k]);
+      fmt::print("  cycle {}: C_L {:.3f}  C_D {:.3f}  (translational normalisation: C_L {:.3f}  C_D {:.3f})\n", k + 1,
+                 r.cycle_cl[k], r.cycle_cd[k], r.cycle_cl[k] * fl, r.cycle_cd[k] * fd);
     fmt::print("  {}\n  files: {}/history.csv, summary.json, lift.svg, drag.svg\n", verdict, o.output_dir);
   }
   return 0;

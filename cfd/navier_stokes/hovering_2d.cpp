@@ -52,6 +52,8 @@ QuasiSteadyMaxima hovering_2d_quasi_steady_maxima(const Hovering2dCase& c, int c
   if (chord_points < 2 || samples_per_cycle < 4) throw std::invalid_argument("quasi-steady maxima: too few points");
   QuasiSteadyMaxima m;
   m.chord_points = chord_points, m.time_samples = samples_per_cycle;
+  m.lift_translational = 0.5 * c.max_speed() * c.max_speed() * 1.2;
+  m.drag_translational = 0.5 * c.max_speed() * c.max_speed() * 1.4;
   for (int n = 0; n < samples_per_cycle; ++n) {
     const double t = c.period() * n / samples_per_cycle;
     const Hovering2dKinematics k = hovering_2d_kinematics(c, t);

@@ -34,6 +34,9 @@ TEST(Hovering2d, QuasiSteadyMaximaOfTheNormalisation) {
   EXPECT_NEAR(m.lift, 3.02, 0.01);
   EXPECT_NEAR(m.drag, 3.74, 0.01);
   EXPECT_GT(m.lift, 0.5 * c.max_speed() * c.max_speed() * 1.2);
+  // The other convention found with the same reference curves (barbagroup's cuIBM): 1/2 U_max^2 c x 1.2, x 1.4.
+  EXPECT_NEAR(m.lift_translational, 2.9017, 1e-4);
+  EXPECT_NEAR(m.drag_translational, 3.3853, 1e-4);
   const Hovering2dKinematics k = hovering_2d_kinematics(c, c.period() / 4);
   EXPECT_NEAR(k.u, -c.max_speed(), 1e-12);
   EXPECT_NEAR(k.alpha, 3 * flapstab::pi / 4, 1e-12);
@@ -107,6 +110,9 @@ Comparison compare(const Hovering2dResult& r) {
                 r.cycle_cd[k], r.cycle_cl_surface[k], r.cycle_cd_surface[k]);
   std::printf("    cycles 2-4: C_L %.4f (surface %.4f), C_D %.4f; spanwise deviation %.2e U_max\n", c.cl, c.cl_surface,
               c.cd, r.spanwise_deviation);
+  std::printf("    cycles 2-4 under the translational normalisation (1/2 U_max^2 c x 1.2, x 1.4): C_L %.4f, C_D %.4f\n",
+              c.cl * r.normalisation.lift / r.normalisation.lift_translational,
+              c.cd * r.normalisation.drag / r.normalisation.drag_translational);
   auto line = [](const char* what, const HistoryComparison& h) {
     std::printf("    %-22s reference mean %.4f, correlation %.3f, rms difference %.3f (%d points)\n", what,
                 h.reference_mean, h.correlation, h.rms_difference, h.points);
