@@ -16,19 +16,25 @@ using ns::real;
 
 bool periodic_of(const std::array<Axis, 3>& ax, int d) { return ax[std::size_t(d)].periodic; }
 
-void fill_ghosts(const Shape& s, const bool periodic[3], real* x) {
+// Periodic images of m-valued cells into the ghost layer.
+template <int M, class T>
+void fill_ghosts_block(const Shape& s, const bool periodic[3], T* x) {
   for (int a = 0; a < 3; ++a) {
     if (!periodic[a]) continue;
     const int b = (a + 1) % 3, c = (a + 2) % 3, n = s.n(a);
     const std::ptrdiff_t sa = s.stride(a), sb = s.stride(b), sc = s.stride(c);
     for (int kc = 0; kc <= s.n(c) + 1; ++kc)
       for (int kb = 0; kb <= s.n(b) + 1; ++kb) {
-        real* l = x + kb * sb + kc * sc;
-        l[0] = l[n * sa];
-        l[(n + 1) * sa] = l[sa];
+        T* l = x + (kb * sb + kc * sc) * M;
+        for (int q = 0; q < M; ++q) {
+          l[q] = l[n * sa * M + q];
+          l[(n + 1) * sa * M + q] = l[sa * M + q];
+        }
       }
   }
 }
+
+void fill_ghosts(const Shape& s, const bool periodic[3], real* x) { fill_ghosts_block<1>(s, periodic, x); }
 
 struct Level {
   std::array<Axis, 3> axis;
@@ -110,24 +116,6 @@ struct BlockLevel {
   }
   bool active(std::ptrdiff_t n) const { return diag[std::size_t(n)] > 0; }
 };
-
-// Periodic images of m-valued cells into the ghost layer.
-template <int M, class T>
-void fill_ghosts_block(const Shape& s, const bool periodic[3], T* x) {
-  for (int a = 0; a < 3; ++a) {
-    if (!periodic[a]) continue;
-    const int b = (a + 1) % 3, c = (a + 2) % 3, n = s.n(a);
-    const std::ptrdiff_t sa = s.stride(a), sb = s.stride(b), sc = s.stride(c);
-    for (int kc = 0; kc <= s.n(c) + 1; ++kc)
-      for (int kb = 0; kb <= s.n(b) + 1; ++kb) {
-        T* l = x + (kb * sb + kc * sc) * M;
-        for (int q = 0; q < M; ++q) {
-          l[q] = l[n * sa * M + q];
-          l[(n + 1) * sa * M + q] = l[sa * M + q];
-        }
-      }
-  }
-}
 
 // out = A x or b - A x (m values per cell) with the conductances of level L (double or float arrays), zero where
 // inactive. The value type of x, b, out is T.
