@@ -602,6 +602,7 @@ CfdSettings parse_cfd(Section s) {
   d.checkpoints_per_cycle = s.integer_or("checkpoints_per_cycle", d.checkpoints_per_cycle, 0, 100000);
   d.field_precision = s.string("field_precision", false, d.field_precision, {"float64", "float32"});
   d.loads = s.string("loads", false, d.loads, {"exchange", "surface"});
+  d.pressure_solver = s.string("pressure_solver", false, d.pressure_solver, {"multigrid", "hypre"});
   // Mesh sizes: the level sets are built from the meshes before the first step, at a cost that grows with the
   // triangle count (body_divisions = 1000 took 11 min and 4 GB); far beyond what any grid resolves.
   d.body_divisions = s.integer_or("body_divisions", d.body_divisions, 2, 200);

@@ -75,6 +75,7 @@ struct CfdSettings {
   int checkpoints_per_cycle = 1;    // checkpoints per wingbeat (0: only at the end)
   std::string field_precision = "float32";  // "float64" | "float32"
   std::string loads = "exchange";   // "exchange" (momentum exchange of the forcing) | "surface" (surface integral)
+  std::string pressure_solver = "multigrid";  // "multigrid" (the project's) | "hypre" (hypre's PCG + SMG, if built)
   int body_divisions = 16;          // body mesh: cube-sphere divisions per face edge (12 n^2 triangles)
   int wing_span_stations = 40;      // wing mesh: spanwise stations
   int wing_chord_divisions = 10;    // wing mesh: chordwise divisions

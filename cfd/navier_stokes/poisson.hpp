@@ -1,11 +1,19 @@
 // Pressure Poisson equation L x = b (L = D G, the MAC divergence of the MAC gradient): conjugate gradients
 // preconditioned by a geometric multigrid V-cycle.
 #pragma once
+#include <memory>
 #include "cfd/navier_stokes/multigrid.hpp"
 
 namespace flapstab::ns {
 
+class HyprePoisson;
+
+// The solver behind Poisson::solve: the project's multigrid-preconditioned CG (default), or hypre's structured
+// PCG + PFMG (poisson_hypre.hpp; for grids with very elongated cells, where the point smoother stalls).
+enum class PoissonBackend { multigrid, hypre };
+
 struct PoissonOptions {
+  PoissonBackend backend = PoissonBackend::multigrid;
   double rtol = 1e-6;   // stop when max|b - Lx| <= max(rtol * max|b|, atol)
   double atol = 0;
   int max_cycles = 30;  // iterations, plain and conjugate-gradient (one V-cycle each)
@@ -38,6 +46,9 @@ struct PoissonStats {
 class Poisson {
  public:
   Poisson(const Grid& g, const ScalarBCs& bc);
+  ~Poisson();
+  Poisson(Poisson&&) noexcept;
+  Poisson& operator=(Poisson&&) noexcept;
 
   // x = L^-1 b to the residual tolerance (relative to b), from x = 0 or, with `guess`, from x's value on entry
   // (the previous time step's pressure increment of the same stage saves one or two iterations). Singular L: x
@@ -57,6 +68,7 @@ class Poisson {
   ScalarBCs bc_;
   bool singular_;
   Field z_, p_, q_;  // preconditioned residual, search direction, L p
+  std::unique_ptr<HyprePoisson> hypre_;  // set up at the first solve with backend = hypre
 };
 
 // Volume-weighted mean of a cell field.

@@ -1,5 +1,6 @@
 // The stepping CFD simulation (simulation.hpp).
 #include "cfd/navier_stokes/simulation.hpp"
+#include "cfd/navier_stokes/poisson_hypre.hpp"
 
 #include <array>
 #include <cmath>
@@ -52,7 +53,7 @@ VolumeMoments volume_moments(const TriangleMesh& m) {
   return v;
 }
 
-SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m) {
+SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m, const std::string& path) {
   SolverOptions so;
   so.nu = plan.nu;
   so.cfl = s.cfl;
@@ -60,6 +61,12 @@ SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const Bo
   so.frame_rate = m.rate;
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
+  if (s.pressure_solver == "hypre") {
+    if (!hypre_available())
+      throw InputError(path, "aero.cfd.pressure_solver", "\"hypre\", but this flapstab was built without hypre",
+                       "\"multigrid\" (or install libhypre-dev and libopenmpi-dev and rebuild)");
+    so.poisson.backend = PoissonBackend::hypre;
+  }
   return so;
 }
 
@@ -82,7 +89,7 @@ struct Simulation::Impl : StageHooks {
   double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
       : config(c.insect, kin), motion(config, m),
-        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m)), parts(insect_part_count(c.insect)),
+        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m, c.path)), parts(insect_part_count(c.insect)),
         rho(plan.rho) {
     if (o.initial_velocity) solver.initialise([&](double x, double y, double z) { return o.initial_velocity(x, y, z); });
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
