@@ -141,6 +141,7 @@ Hovering2dResult run_hovering_2d(const Hovering2dCase& c, const std::function<vo
   SolverOptions opt;
   opt.nu = c.viscosity();
   opt.cfl = c.cfl;
+  if (c.hypre) opt.poisson.backend = PoissonBackend::hypre;
   Solver solver(g, bc, opt);
   solver.initialise([](double, double, double) { return Vec3::Zero(); });
   ImmersedBoundary ib(g);

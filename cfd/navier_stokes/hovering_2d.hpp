@@ -49,6 +49,7 @@ struct Hovering2dCase {
   int span_cells = 2;              // depth of the periodic slab, cells of width h (at least 2)
   int outline_points = 256;        // vertices of the ellipse's outline (clustered at the edges)
   double cfl = 1.2;                // adaptive time step's CFL number (RK3, central fluxes: stable to sqrt 3)
+  bool hypre = false;              // pressure solves by hypre (PCG + SMG): they converge on the elongated cells of large boxes
 
   double max_speed() const { return pi * amplitude * frequency; }  // U_max
   double viscosity() const { return max_speed() / reynolds; }      // nu (c = 1)

@@ -123,12 +123,17 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
     worst_unconverged_ = std::max(worst_unconverged_, ps.target > 0 ? ps.residual / ps.target : 0.0);
     if (ps.residual >= ps.initial_residual)
       throw std::runtime_error(fmt::format(
-          "navier_stokes solver: the pressure solve diverged at t = {:.6g}: after {} multigrid iterations the "
-          "divergence residual is {:.3g}, no smaller than at the start ({:.3g}); {} of the {} pressure solves so far "
-          "stopped above their tolerance. The multigrid does not converge on this grid: cells much longer in one "
-          "direction than in another (largest aspect ratio here {:.3g}) defeat its point smoother; reduce the "
-          "stretching or the domain size, or refine the coarse direction",
-          t_stage, ps.cycles, ps.residual, ps.initial_residual, unconverged_, solves_, max_aspect_ratio(grid_)));
+          "navier_stokes solver: the pressure solve ({}) diverged at t = {:.6g}: after {} iterations the divergence "
+          "residual is {:.3g}, no smaller than at the start ({:.3g}); {} of the {} pressure solves so far stopped above "
+          "their tolerance. {}",
+          popt.backend == PoissonBackend::hypre ? "hypre" : "multigrid", t_stage, ps.cycles, ps.residual,
+          ps.initial_residual, unconverged_, solves_,
+          popt.backend == PoissonBackend::hypre
+              ? fmt::format("The flow itself may be diverging (CFL {:.3g}): reduce the time step", cfl(dt))
+              : fmt::format("Cells much longer in one direction than in another (largest aspect ratio here {:.3g}) "
+                            "defeat the multigrid's point smoother: reduce the stretching or the domain size, or use "
+                            "[aero.cfd] pressure_solver = \"hypre\"; or the flow itself is diverging (CFL {:.3g})",
+                            max_aspect_ratio(grid_), cfl(dt))));
   }
   project(grid_, ustar_, phi, u_, p_, adt);
   fill_ghosts(p_, pbc_);

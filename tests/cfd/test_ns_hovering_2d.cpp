@@ -131,6 +131,7 @@ Hovering2dResult run(double cells_per_chord, int span_cells = 2) {
   if (const char* v = std::getenv("H2D_RE")) c.reynolds = std::atof(v);
   if (const char* v = std::getenv("H2D_THICKNESS")) c.thickness = std::atof(v);
   if (const char* v = std::getenv("H2D_STRETCH")) c.stretch_ratio = std::atof(v);
+  if (const char* v = std::getenv("H2D_HYPRE")) c.hypre = std::atoi(v) != 0;
   return run_hovering_2d(c);
 }
 
@@ -140,7 +141,8 @@ int env_int(const char* name, int fallback) {
 }
 
 // Any grid (H2D_CPC cells per chord, H2D_NZ span cells, H2D_CYCLES periods) and case (H2D_HALF_WIDTH of the walled
-// box, H2D_RE, H2D_THICKNESS of the chord, H2D_STRETCH ratio outside the fine box), printed, not asserted.
+// box, H2D_RE, H2D_THICKNESS of the chord, H2D_STRETCH ratio outside the fine box; H2D_HYPRE=1: hypre's pressure
+// solver, which converges in boxes beyond +-22 c where the multigrid stalls), printed, not asserted.
 TEST(Hovering2d, DISABLED_Probe) {
   compare(run(env_int("H2D_CPC", 16), env_int("H2D_NZ", 2)));
 }
