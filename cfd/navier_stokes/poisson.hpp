@@ -9,7 +9,7 @@ namespace flapstab::ns {
 class HyprePoisson;
 
 // The solver behind Poisson::solve: the project's multigrid-preconditioned CG (default), or hypre's structured
-// PCG + PFMG (poisson_hypre.hpp; for grids with very elongated cells, where the point smoother stalls).
+// PCG + SMG (poisson_hypre.hpp; for grids with very elongated cells, where the point smoother stalls).
 enum class PoissonBackend { multigrid, hypre };
 
 struct PoissonOptions {
