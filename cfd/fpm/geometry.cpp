@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <cstdint>
 #include <unordered_map>
 
 namespace flapstab::fpm {
@@ -82,21 +83,29 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     if (!g.axis[std::size_t(a)].periodic) return -1;
     return I < 1 ? I + n : I - n;
   };
-  // cells within one cell of a solid cell
+  // cells within one cell of a solid cell: the solid cells dilated by one along x, then y, then z (the 27 around)
   std::vector<char> near(s.cells(), 0);
+  {
+    std::vector<char> next(s.cells(), 0);
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
-  for (int k = 1; k <= s.nz; ++k)
-    for (int j = 1; j <= s.ny; ++j)
-      for (int i = 1; i <= s.nx; ++i) {
-        bool any = false;  // a solid cell among the 27 around (i, j, k)
-        for (int c = -1; c <= 1 && !any; ++c)
-          for (int b = -1; b <= 1 && !any; ++b)
-            for (int a = -1; a <= 1 && !any; ++a) {
-              const int I = image(0, i + a), J = image(1, j + b), K = image(2, k + c);
-              any = I > 0 && J > 0 && K > 0 && owners[flat(I, J, K)] >= 0;
+    for (std::ptrdiff_t m = 0; m < std::ptrdiff_t(s.cells()); ++m) near[std::size_t(m)] = owners[std::size_t(m)] >= 0;
+    for (int a = 0; a < 3; ++a) {
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            int I[3] = {i, j, k};
+            const int c = I[a];
+            bool any = near[flat(i, j, k)];
+            for (const int o : {-1, 1}) {
+              I[a] = image(a, c + o);
+              any = any || (I[a] > 0 && near[flat(I[0], I[1], I[2])]);
             }
-        near[flat(i, j, k)] = any;
-      }
+            next[flat(i, j, k)] = any;
+          }
+      near.swap(next);
+    }
+  }
   std::vector<FaceSolid> solids;
   for (int d = 0; d < 3; ++d) {
     const ns::Axis& ad = g.axis[std::size_t(d)];
@@ -197,45 +206,75 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
   // box).
   {
     const std::size_t cells = std::size_t(s.nx) * s.ny * s.nz;
-    std::vector<int> comp(cells, -1);
-    std::vector<std::size_t> size;
-    std::vector<char> outer;
-    std::vector<std::array<int, 3>> stack;
-    auto idx = [&](int i, int j, int k) { return flat(i, j, k); };
+    const std::ptrdiff_t stride[3] = {1, s.nx, std::ptrdiff_t(s.nx) * s.ny};
+    // Per cell: bit 2 d + side, the face towards the neighbour along d (side 0 below) is open and the neighbour is
+    // active; bit 8 + 2 d + side, that neighbour is a periodic image (across the domain); bit 6, the cell lies on a
+    // non-periodic domain face.
+    std::vector<std::uint16_t> link(cells, 0);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
         for (int i = 1; i <= s.nx; ++i) {
-          if (!G.active(s(i, j, k)) || comp[idx(i, j, k)] >= 0) continue;
+          if (!G.active(s(i, j, k))) continue;
+          const std::array<int, 3> I = {i, j, k};
+          std::uint16_t m = 0;
+          for (int d = 0; d < 3; ++d) {
+            const bool per = g.axis[std::size_t(d)].periodic;
+            if (!per && (I[std::size_t(d)] == 1 || I[std::size_t(d)] == s.n(d))) m |= 1u << 6;
+            for (int side = 0; side < 2; ++side) {
+              std::array<int, 3> J = I;
+              J[std::size_t(d)] += side == 0 ? -1 : 1;
+              // the face between I and J: the lower face of the upper cell
+              std::array<int, 3> F = side == 0 ? I : J;
+              bool wraps = false;
+              if (J[std::size_t(d)] < 1 || J[std::size_t(d)] > s.n(d)) {
+                if (!per) continue;
+                J[std::size_t(d)] = J[std::size_t(d)] < 1 ? s.n(d) : 1;
+                F[std::size_t(d)] = side == 0 ? 1 : s.n(d) + 1;
+                wraps = true;
+              }
+              if (G.aperture[std::size_t(d)](F[0], F[1], F[2]) <= 0) continue;
+              if (!G.active(s(J[0], J[1], J[2]))) continue;
+              m |= 1u << (2 * d + side);
+              if (wraps) m |= 1u << (8 + 2 * d + side);
+            }
+          }
+          link[flat(i, j, k)] = m;
+        }
+    // connected components of the active cells through the open faces
+    std::vector<int> comp(cells, -1);
+    std::vector<std::size_t> size;
+    std::vector<char> outer;
+    std::vector<std::ptrdiff_t> stack;
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const std::size_t start = flat(i, j, k);
+          if (!G.active(s(i, j, k)) || comp[start] >= 0) continue;
           const int c = int(size.size());
           size.push_back(0);
           outer.push_back(0);
-          comp[idx(i, j, k)] = c;
-          stack.push_back({i, j, k});
+          comp[start] = c;
+          stack.push_back(std::ptrdiff_t(start));
           while (!stack.empty()) {
-            const auto I = stack.back();
+            const std::ptrdiff_t n = stack.back();
             stack.pop_back();
             ++size[std::size_t(c)];
-            for (int d = 0; d < 3; ++d) {
-              const bool per = g.axis[std::size_t(d)].periodic;
-              if (!per && (I[d] == 1 || I[d] == s.n(d))) outer[std::size_t(c)] = 1;
+            const std::uint16_t m = link[std::size_t(n)];
+            if (m & (1u << 6)) outer[std::size_t(c)] = 1;
+            for (int d = 0; d < 3; ++d)
               for (int side = 0; side < 2; ++side) {
-                std::array<int, 3> J = I;
-                J[std::size_t(d)] += side == 0 ? -1 : 1;
-                // the face between I and J: the lower face of the upper cell
-                std::array<int, 3> F = side == 0 ? I : J;
-                if (J[std::size_t(d)] < 1 || J[std::size_t(d)] > s.n(d)) {
-                  if (!per) continue;
-                  J[std::size_t(d)] = J[std::size_t(d)] < 1 ? s.n(d) : 1;
-                  F[std::size_t(d)] = side == 0 ? 1 : s.n(d) + 1;
-                }
-                if (G.aperture[std::size_t(d)](F[0], F[1], F[2]) <= 0) continue;
-                if (!G.active(s(J[0], J[1], J[2])) || comp[idx(J[0], J[1], J[2])] >= 0) continue;
-                comp[idx(J[0], J[1], J[2])] = c;
-                stack.push_back(J);
+                const int bit = 2 * d + side;
+                if (!(m & (1u << bit))) continue;
+                const std::ptrdiff_t step = side == 0 ? -stride[d] : stride[d];
+                const std::ptrdiff_t nb = (m & (1u << (8 + bit))) ? n - step * (s.n(d) - 1) : n + step;
+                if (comp[std::size_t(nb)] >= 0) continue;
+                comp[std::size_t(nb)] = c;
+                stack.push_back(nb);
               }
-            }
           }
         }
+    auto idx = [&](int i, int j, int k) { return flat(i, j, k); };
     bool any_outer = false;
     for (char o : outer) any_outer = any_outer || o;
     if (!any_outer && !size.empty()) {
