@@ -215,28 +215,27 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j)
         for (int i = 1; i <= s.nx; ++i) {
-          if (!G.active(s(i, j, k))) continue;
-          const std::array<int, 3> I = {i, j, k};
+          const std::ptrdiff_t n = s(i, j, k);
+          if (!G.active(n)) continue;
+          const int I[3] = {i, j, k};
           std::uint16_t m = 0;
           for (int d = 0; d < 3; ++d) {
             const bool per = g.axis[std::size_t(d)].periodic;
-            if (!per && (I[std::size_t(d)] == 1 || I[std::size_t(d)] == s.n(d))) m |= 1u << 6;
-            for (int side = 0; side < 2; ++side) {
-              std::array<int, 3> J = I;
-              J[std::size_t(d)] += side == 0 ? -1 : 1;
-              // the face between I and J: the lower face of the upper cell
-              std::array<int, 3> F = side == 0 ? I : J;
-              bool wraps = false;
-              if (J[std::size_t(d)] < 1 || J[std::size_t(d)] > s.n(d)) {
-                if (!per) continue;
-                J[std::size_t(d)] = J[std::size_t(d)] < 1 ? s.n(d) : 1;
-                F[std::size_t(d)] = side == 0 ? 1 : s.n(d) + 1;
-                wraps = true;
-              }
-              if (G.aperture[std::size_t(d)](F[0], F[1], F[2]) <= 0) continue;
-              if (!G.active(s(J[0], J[1], J[2]))) continue;
-              m |= 1u << (2 * d + side);
-              if (wraps) m |= 1u << (8 + 2 * d + side);
+            const int nd = s.n(d);
+            const std::ptrdiff_t st = s.stride(d);
+            const Field& ap = G.aperture[std::size_t(d)];
+            if (!per && (I[d] == 1 || I[d] == nd)) m |= 1u << 6;
+            // below: face I[d] (face 1 of a periodic axis leads to cell nd); above: face I[d] + 1 (face nd + 1, the
+            // periodic copy of face 1, leads to cell 1)
+            if (I[d] > 1 || per) {
+              const bool wraps = I[d] == 1;
+              if (ap[n] > 0 && G.active(wraps ? n + (nd - 1) * st : n - st))
+                m |= std::uint16_t((1u << (2 * d)) | (wraps ? 1u << (8 + 2 * d) : 0u));
+            }
+            if (I[d] < nd || per) {
+              const bool wraps = I[d] == nd;
+              if (ap[n + st] > 0 && G.active(wraps ? n - (nd - 1) * st : n + st))
+                m |= std::uint16_t((1u << (2 * d + 1)) | (wraps ? 1u << (8 + 2 * d + 1) : 0u));
             }
           }
           link[flat(i, j, k)] = m;

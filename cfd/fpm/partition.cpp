@@ -195,10 +195,13 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
     double mean = 0;
     if (outer_area > 0) {
       for (const auto& f : outer) mean += phi[f.cell] * f.area / outer_area;
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
       for (int kk = 1; kk <= s.nz; ++kk)
         for (int j = 1; j <= s.ny; ++j)
-          for (int i = 1; i <= s.nx; ++i)
-            if (L.active(i, j, kk)) phi(i, j, kk) -= mean;
+          for (int i = 1; i <= s.nx; ++i) {
+            const std::ptrdiff_t n = s(i, j, kk);
+            if (o.active(n)) phi[n] -= mean;
+          }
     }
     fill_periodic_ghosts(g, phi);
   }
@@ -278,8 +281,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     const ns::Axis& ad = g.axis[std::size_t(d)];
     const int e = (d + 1) % 3, h = (d + 2) % 3;
     const Field& ud = u[d];
-    Field& w = lap_area[d];
-    w.fill(0);
+    Field& w = lap_area[d];  // zero where no open face
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int kk = 1; kk <= s.nz; ++kk)
       for (int j = 1; j <= s.ny; ++j)
@@ -308,6 +310,16 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
+  // Q times the cell's fluid volume, the vortex-induced term's weight of phi
+  std::vector<double> vortex_weight(s.cells());
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+  for (int kk = 1; kk <= s.nz; ++kk)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int ii = 1; ii <= s.nx; ++ii) {
+        const std::size_t n = flat(ii, j, kk);
+        vortex_weight[n] = q_[n] * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
+      }
+
   // The terms of one potential of part i (datum k): rho-scaled as in the partition's formula, the regions' share of the
   // vortex-induced part (region_count_ entries; none without regions).
   struct Terms {
@@ -327,43 +339,33 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       car += phi[c.cell] * centripetal.dot(c.area);
       if (c.part == i) direct -= p[c.cell] * datum(c, k, x0, states);
     }
-    double vortex = 0;
-    if (region_count_ > 0) {
-      std::vector<double> by_region(std::size_t(region_count_), 0.0);
-      double* acc = by_region.data();
-      const int nr = region_count_;
-      const int* label = region_labels_.data();
-#pragma omp parallel for schedule(static) reduction(+ : acc[:nr]) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int ii = 1; ii <= s.nx; ++ii) {
-            const std::size_t n = flat(ii, j, kk);
-            acc[label[n]] += q_[n] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
-          }
-      for (double v : by_region) {
-        vortex += v;
-        T.regions.push_back(-2 * rho * v);
-      }
-    } else {
-#pragma omp parallel for schedule(static) reduction(+ : vortex) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int ii = 1; ii <= s.nx; ++ii)
-            vortex += q_[flat(ii, j, kk)] * phi(ii, j, kk) * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
-    }
-    // mu int lap u . grad phi over the open faces: grad phi df beta A = (phi_h - phi_l) beta A
+    // -2 rho int Q phi dV (by region) and mu int lap u . grad phi over the open faces (grad phi df beta A =
+    // (phi_h - phi_l) beta A), in one pass over the cells
+    const int nr = std::max(region_count_, 1);
+    std::vector<double> by_region(std::size_t(nr), 0.0);
+    double* acc = by_region.data();
     double visc = 0;
-    for (int d = 0; d < 3; ++d) {
-      const Field& w = lap_area[d];
-      const std::ptrdiff_t step = s.stride(d);
-#pragma omp parallel for schedule(static) reduction(+ : visc) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int ii = 1; ii <= s.nx; ++ii) {
-            const std::ptrdiff_t nh = s(ii, j, kk);
-            if (w[nh] != 0) visc += w[nh] * (phi[nh] - phi[nh - step]);
-          }
-    }
+    const int* label = region_count_ > 0 ? region_labels_.data() : nullptr;
+    const double *w0 = lap_area[0].data(), *w1 = lap_area[1].data(), *w2 = lap_area[2].data();
+    const std::ptrdiff_t sy = s.sy, sz = s.sz;
+#pragma omp parallel for schedule(static) reduction(+ : acc[:nr], visc) if (ns::threaded(s))
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j) {
+        const std::size_t m0 = flat(1, j, kk);
+        const std::ptrdiff_t n0 = s(1, j, kk);
+        double line = 0;
+        for (int ii = 0; ii < s.nx; ++ii) {
+          const std::ptrdiff_t n = n0 + ii;
+          const double f = phi[n];
+          line += w0[n] * (f - phi[n - 1]) + w1[n] * (f - phi[n - sy]) + w2[n] * (f - phi[n - sz]);
+          acc[label ? label[m0 + std::size_t(ii)] : 0] += vortex_weight[m0 + std::size_t(ii)] * f;
+        }
+        visc += line;
+      }
+    double vortex = 0;
+    for (double v : by_region) vortex += v;
+    if (region_count_ > 0)
+      for (double v : by_region) T.regions.push_back(-2 * rho * v);
     double outer_term = 0;
     for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
     T.kinematic = rho * kin;

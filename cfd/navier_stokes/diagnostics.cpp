@@ -15,6 +15,7 @@ CentreFields centre_fields(const Grid& g, const VectorField& u) {
   }
   f.q.assign(n, 0.0);
   auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + (j - 1)) * s.nx + (i - 1); };
+#pragma omp parallel for schedule(static) if (threaded(s))
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {
@@ -26,6 +27,7 @@ CentreFields centre_fields(const Grid& g, const VectorField& u) {
         }
       }
   const int nn[3] = {s.nx, s.ny, s.nz};
+#pragma omp parallel for schedule(static) if (threaded(s))
   for (int k = 1; k <= s.nz; ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {

@@ -165,6 +165,45 @@ TEST(FpmPotential, FluidCutOffInsideAShellIsLeftOut) {
   EXPECT_NEAR(ma / (V / 2), 1.0, 0.01);
 }
 
+// Pockets across a periodic axis: a tube (0.4 < r < 0.6) along the periodic z axis from the bottom face up to a cap
+// at 0.3 < z < 0.5. Its inside reaches the walls only through the periodic image of the bottom face (fluid above
+// the tube), so it must stay; with a second cap at -0.5 < z < -0.3 the fluid between the caps is a pocket.
+TEST(FpmPotential, PocketsFollowPeriodicImages) {
+  const Grid g(Axis::uniform(-1, 1, 32, false), Axis::uniform(-1, 1, 32, false), Axis::uniform(-1, 1, 32, true));
+  const auto tube = [](const Vec3& x, bool closed) {
+    const double r = std::hypot(x.x(), x.y());
+    double v = std::max({r - 0.6, 0.4 - r, x.z() - 0.5});                   // the tube wall
+    v = std::min(v, std::max({r - 0.6, 0.3 - x.z(), x.z() - 0.5}));          // the top cap
+    if (closed) v = std::min(v, std::max({r - 0.6, -0.5 - x.z(), x.z() + 0.3}));  // a bottom cap
+    return v;
+  };
+  const Shape s = g.shape();
+  for (const bool closed : {false, true}) {
+    const fpm::LevelFunction level = [&](int, const Vec3& x, double) { return tube(x, closed); };
+    const fpm::FluidGeometry geo = fpm::fluid_geometry(g, 1, level, fpm::owners_of(g, 1, level));
+    std::size_t inside = 0, active = 0;  // cells well inside the tube between the caps
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          const Vec3 x(g.axis[0].xc[i], g.axis[1].xc[j], g.axis[2].xc[k]);
+          if (std::hypot(x.x(), x.y()) < 0.3 && std::abs(x.z()) < 0.2) {
+            ++inside;
+            active += geo.volume_fraction(i, j, k) > 0;
+          }
+        }
+    fmt::print("tube along the periodic axis, {}: {} cells inside, {} active, {} pocket cells\n",
+               closed ? "closed by a second cap" : "open through the periodic face", inside, active, geo.pocket_cells);
+    ASSERT_GT(inside, 0u);
+    if (closed) {
+      EXPECT_EQ(active, 0u);
+      EXPECT_GE(geo.pocket_cells, inside);
+    } else {
+      EXPECT_EQ(active, inside);
+      EXPECT_EQ(geo.pocket_cells, 0u);
+    }
+  }
+}
+
 // A sphere R1 inside a fixed concentric sphere R2 (both no-flux): m_a = (2/3) rho pi R1^3 [1 + 2 (R1/R2)^3] /
 // [1 - (R1/R2)^3] (Lamb 1932, section 92; Zhang 2015 thesis uses it for the confined FPM check). R1/R2 = 1/2:
 // 1.4286 x rho V / 2. The container enters as part 1 (fixed, no-flux). No box effect here: the error is the
