@@ -1,9 +1,11 @@
 // Benchmark of the Navier-Stokes solver with a flapping insect immersed: the default hawkmoth (body and two membrane
 // wings, prescribed hover kinematics) in quiescent air at Re = 1000, on a stretched grid of about 2.2 million cells
 // (fine box around the swept volume, geometric stretching to the far field). FP64, 1 and 2 OpenMP threads. Cost
-// in ns per cell per step as WaterLily.jl reports it (PEERS.md A.1), the immersed boundary's share of it, and the
-// memory traffic of the body-free kernels per cell (bench_navier_stokes.cpp) with the bandwidth it implies
-// (a STREAM-type triad measured on this kind of machine: ~38 GB/s on one core, ~42 GB/s on two).
+// in ns per cell per step as WaterLily.jl reports it (its benchmark timings,
+// github.com/WaterLily-jl/WaterLily.jl), the immersed boundary's share of it, and the
+// memory traffic of the body-free kernels per cell (bench_navier_stokes.cpp) with the bandwidth it implies, and the
+// bound that traffic sets at the bandwidth of a STREAM-type triad measured in the same process at the same thread
+// count (bench/step_timing.hpp: triad_GB_per_s, bound_ns_per_cell_step, ratio_to_bound).
 // Run: cmake -S . -B build -DFLAPSTAB_BUILD_BENCH=ON && cmake --build build --target bench_immersed &&
 //      ./build/bench/bench_immersed
 #include <benchmark/benchmark.h>

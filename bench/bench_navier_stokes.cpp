@@ -1,7 +1,8 @@
 // Benchmarks of the Navier-Stokes core (no bodies): cost per cell per time step of the 3D Taylor-Green vortex in a
 // periodic box, and of one pressure-Poisson iteration, FP64, on 1 and 2 OpenMP threads, with the memory traffic of
-// the kernels per cell and the bandwidth that traffic implies (a STREAM-type triad measured on this kind of machine: ~38 GB/s on one core,
-// ~42 GB/s on two). Figure of merit as WaterLily.jl reports it (PEERS.md A.1): wall time per step / cells.
+// the kernels per cell and the bandwidth that traffic implies, against a STREAM-type triad measured in the same process
+// (bench/step_timing.hpp). Figure of merit as WaterLily.jl reports it (its benchmark timings,
+// github.com/WaterLily-jl/WaterLily.jl): wall time per step / cells.
 // Run: cmake -S . -B build -DFLAPSTAB_BUILD_BENCH=ON && cmake --build build --target bench_navier_stokes &&
 //      ./build/bench/bench_navier_stokes
 #include <benchmark/benchmark.h>

@@ -1,8 +1,12 @@
 // Timing of solver steps for the Navier-Stokes benchmarks, and the memory traffic model behind the bandwidth figure.
 #pragma once
 #include <benchmark/benchmark.h>
+#include <omp.h>
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <map>
+#include <memory>
 #include "cfd/navier_stokes/solver.hpp"
 
 namespace flapstab::bench {
@@ -23,10 +27,42 @@ constexpr double stage_bytes = 240, step_bytes = 24, vcycle_bytes_fused = 59, vc
                  krylov_bytes = 112, first_iteration_saving = 40, plain_update_bytes = 40;
 inline double vcycle_bytes(const ns::Grid& g) { return g.axis[2].periodic ? vcycle_bytes_single : vcycle_bytes_fused; }
 
+// The memory bandwidth of this machine at the current OpenMP thread count, measured in this process: a STREAM-type
+// triad a = b + s c over three arrays of 2^24 doubles (128 MiB each, beyond the caches), 24 bytes per element (the
+// write-allocate of a not counted, as in STREAM and the traffic model above), best of 5 passes after one untimed
+// pass; GB/s (1e9 bytes). Measured once per thread count and kept.
+inline double triad_GB_per_s() {
+  static std::map<int, double> measured;
+  const int threads = omp_get_max_threads();
+  if (const auto it = measured.find(threads); it != measured.end()) return it->second;
+  const std::ptrdiff_t n = std::ptrdiff_t(1) << 24;
+  std::unique_ptr<double[]> a(new double[std::size_t(n)]), b(new double[std::size_t(n)]), c(new double[std::size_t(n)]);
+  double* pa = a.get();
+  double* pb = b.get();
+  double* pc = c.get();
+#pragma omp parallel for schedule(static)  // first touch by the threads that use them
+  for (std::ptrdiff_t i = 0; i < n; ++i) pa[i] = 0, pb[i] = 1, pc[i] = 2;
+  double best = 0;
+  for (int pass = 0; pass < 6; ++pass) {
+    const double s = 0.5 + pass;
+    const auto t0 = std::chrono::steady_clock::now();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) pa[i] = pb[i] + s * pc[i];
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    benchmark::DoNotOptimize(pa[n / 2]);
+    if (pass > 0) best = std::max(best, 24.0 * double(n) / seconds / 1e9);
+  }
+  measured[threads] = best;
+  return best;
+}
+
 // Times one solver step per benchmark iteration and sets ns_per_cell_step, poisson_iterations_per_step (of which
 // plain_iterations_per_step),
-// bytes_per_cell_step (body-free kernels' traffic) and implied_GB_per_s.
+// bytes_per_cell_step (body-free kernels' traffic) and implied_GB_per_s, and against the triad measured at the same
+// thread count in this process (triad_GB_per_s): bound_ns_per_cell_step, the time that traffic takes at that
+// bandwidth, and ratio_to_bound = ns_per_cell_step / bound_ns_per_cell_step.
 inline void time_steps(benchmark::State& state, ns::Solver& s) {
+  const double triad = triad_GB_per_s();
   const double cells = double(s.grid().cells());
   double seconds = 0, iterations = 0, plain = 0, krylov_starts = 0;
   std::int64_t steps = 0;
@@ -50,6 +86,9 @@ inline void time_steps(benchmark::State& state, ns::Solver& s) {
   state.counters["plain_iterations_per_step"] = plain_per_step;
   state.counters["bytes_per_cell_step"] = bytes;
   state.counters["implied_GB_per_s"] = bytes * double(steps) * cells / seconds / 1e9;
+  state.counters["triad_GB_per_s"] = triad;
+  state.counters["bound_ns_per_cell_step"] = bytes / triad;
+  state.counters["ratio_to_bound"] = seconds * 1e9 / (double(steps) * cells) / (bytes / triad);
 }
 
 }  // namespace flapstab::bench
