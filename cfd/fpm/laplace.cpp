@@ -145,14 +145,16 @@ FLAPSTAB_KERNEL void block_residual(const Shape& s, const C* a0, const C* a1, co
       }
 }
 
-// Red-black Gauss-Seidel on m right-hand sides: colours in the given order, `sweeps` times.
+// Red-black successive over-relaxation on m right-hand sides: colours in the given order, `sweeps` times, x <- (1 -
+// omega) x + omega x_GS. With the colours reversed after the coarse correction the V-cycle stays symmetric.
 template <int M>
-FLAPSTAB_KERNEL void block_smooth(const BlockLevel& L, int sweeps, int first_colour) {
+FLAPSTAB_KERNEL void block_smooth(const BlockLevel& L, int sweeps, int first_colour, float omega) {
   const Shape& s = L.s;
   const std::ptrdiff_t sy = s.sy, sz = s.sz;
   const float *a0 = L.a[0].data(), *a1 = L.a[1].data(), *a2 = L.a[2].data(), *id = L.inv_diag.data(),
               *b = L.b.data();
   float* x = L.x.data();
+  const float om1 = 1 - omega;
   for (int sw = 0; sw < sweeps; ++sw)
     for (int c = 0; c < 2; ++c) {
       const int colour = (first_colour + c) % 2;
@@ -162,11 +164,11 @@ FLAPSTAB_KERNEL void block_smooth(const BlockLevel& L, int sweeps, int first_col
         for (int j = 1; j <= s.ny; ++j)
           for (int i = 1 + ((j + k + 1 + colour) % 2); i <= s.nx; i += 2) {
             const std::ptrdiff_t n = s(i, j, k);
-            const float e = id[n];
+            const float e = id[n] * omega;
             if (!(e > 0)) continue;
             const float w0 = a0[n], w1 = a0[n + 1], w2 = a1[n], w3 = a1[n + sy], w4 = a2[n], w5 = a2[n + sz];
             for (int q = 0; q < M; ++q)
-              x[n * M + q] = (b[n * M + q] + w0 * x[(n - 1) * M + q] + w1 * x[(n + 1) * M + q] +
+              x[n * M + q] = om1 * x[n * M + q] + (b[n * M + q] + w0 * x[(n - 1) * M + q] + w1 * x[(n + 1) * M + q] +
                               w2 * x[(n - sy) * M + q] + w3 * x[(n + sy) * M + q] + w4 * x[(n - sz) * M + q] +
                               w5 * x[(n + sz) * M + q]) *
                              e;
@@ -204,11 +206,14 @@ struct NeumannLaplacian::Impl {
   // next sample's operator (take_workspace) instead of allocated and faulted in per sample. The preconditioned
   // residual z is the V-cycle's own (interleaved, float) solution, read where it is needed.
   mutable std::vector<std::array<Field, 4>> work;
-  // Red-black sweeps before and after the coarse-grid correction on every level but the coarsest. The coarse
-  // correction (piecewise-constant prolongation) is weak on these grids, so smoothing carries the convergence: on
-  // the hawkmoth benchmark (bench/bench_fpm.cpp, BM_PotentialsFromZero, one thread) 2, 4, 6 and 8 sweeps took 10.3,
-  // 5.7, 4.2 and 4.0 iterations per potential, the whole sample 800, 578, 542 and 537 ms.
-  static constexpr int smoothing = 6;
+  // Red-black sweeps before and after the coarse-grid correction on every level but the coarsest, over-relaxed. The
+  // coarse correction (piecewise-constant prolongation) is weak on these grids, so smoothing carries the
+  // convergence: on the hawkmoth benchmark (bench/bench_fpm.cpp, BM_PotentialsFromZero, one thread) Gauss-Seidel
+  // (omega 1) with 2, 4, 6 and 8 sweeps took 10.3, 5.7, 4.2 and 4.0 iterations per potential, the whole sample 800,
+  // 578, 542 and 537 ms; 4 sweeps with omega 1.3, 1.4, 1.5 and 1.6 took 4.3, 4.0, 4.2 and 5 iterations (487, 395,
+  // 454, 485 ms), 3 and 5 sweeps at 1.4 took 5 and 4 (447, 466 ms).
+  static constexpr int smoothing = 4;
+  static constexpr float omega = 1.4f;
 
   // V-cycle on level l for m right-hand sides: L.x from zero for L.b.
   template <int M>
@@ -227,8 +232,8 @@ struct NeumannLaplacian::Impl {
       const std::array<double, M> r0 = block_max_abs<M>(L, L.r.data());
       if (*std::max_element(r0.begin(), r0.end()) == 0) return;
       for (int it = 0; it < 200; ++it) {
-        block_smooth<M>(L, 1, 0);
-        block_smooth<M>(L, 1, 1);
+        block_smooth<M>(L, 1, 0, omega);
+        block_smooth<M>(L, 1, 1, omega);
         if (it % 10 == 9) {
           residual();
           const std::array<double, M> rn = block_max_abs<M>(L, L.r.data());
@@ -239,7 +244,7 @@ struct NeumannLaplacian::Impl {
       }
       return;
     }
-    block_smooth<M>(L, smoothing, 0);
+    block_smooth<M>(L, smoothing, 0, omega);
     residual();
     const BlockLevel& C = levels[l + 1];
     const Shape& cs = C.s;
@@ -270,7 +275,7 @@ struct NeumannLaplacian::Impl {
           const std::ptrdiff_t nc = cs(I, J, K);
           for (int q = 0; q < M; ++q) L.x[std::size_t(n * M + q)] += C.x[std::size_t(nc * M + q)];
         }
-    block_smooth<M>(L, smoothing, 1);
+    block_smooth<M>(L, smoothing, 1, omega);
   }
 
   template <int M>

@@ -13,8 +13,9 @@
 // precision (flexible: the coarsest level is relaxed to a tolerance, and the V-cycle rounds to float), several
 // right-hand sides at once. Coarse conductances sum the fine faces' open area over the coarse centre spacing,
 // a_C = sum_f a_f df_f / df_C (the coarse-grid discretisation where everything is open, so walls coarsen as
-// their open fraction); piecewise-constant prolongation, summed restriction, red-black Gauss-Seidel smoothing (six
-// sweeps before and after the coarse correction: with this weak prolongation the smoothing carries the convergence).
+// their open fraction); piecewise-constant prolongation, summed restriction, red-black over-relaxed Gauss-Seidel
+// smoothing (four sweeps with omega = 1.4 before and after the coarse correction: with this weak prolongation the
+// smoothing carries the convergence).
 #pragma once
 #include <array>
 #include <cstddef>
