@@ -168,10 +168,11 @@ FLAPSTAB_KERNEL void block_smooth(const BlockLevel& L, int sweeps, int first_col
             if (!(e > 0)) continue;
             const float w0 = a0[n], w1 = a0[n + 1], w2 = a1[n], w3 = a1[n + sy], w4 = a2[n], w5 = a2[n + sz];
             for (int q = 0; q < M; ++q)
-              x[n * M + q] = om1 * x[n * M + q] + (b[n * M + q] + w0 * x[(n - 1) * M + q] + w1 * x[(n + 1) * M + q] +
+              x[n * M + q] = om1 * x[n * M + q] +
+                             (b[n * M + q] + w0 * x[(n - 1) * M + q] + w1 * x[(n + 1) * M + q] +
                               w2 * x[(n - sy) * M + q] + w3 * x[(n + sy) * M + q] + w4 * x[(n - sz) * M + q] +
                               w5 * x[(n + sz) * M + q]) *
-                             e;
+                                 e;
           }
     }
 }
