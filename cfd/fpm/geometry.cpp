@@ -3,10 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <cstdint>
 #include <unordered_map>
 
 namespace flapstab::fpm {

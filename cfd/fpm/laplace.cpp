@@ -106,9 +106,11 @@ struct BlockLevel {
     }
     diag.assign(L.diag.data(), L.diag.data() + s.size());
     inv_diag.resize(s.size());
-    for (std::size_t n = 0; n < s.size(); ++n) {
-      const double d = L.diag[std::ptrdiff_t(n)];
-      inv_diag[n] = d > 0 ? float(1 / d) : 0.0f;
+    const std::ptrdiff_t size = std::ptrdiff_t(s.size());
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+    for (std::ptrdiff_t n = 0; n < size; ++n) {
+      const double d = L.diag[n];
+      inv_diag[std::size_t(n)] = d > 0 ? float(1 / d) : 0.0f;
     }
   }
   void reserve(int m) const {

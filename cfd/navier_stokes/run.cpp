@@ -349,7 +349,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
       const double step_s = progress.seconds_per_step_estimate();
       *log << fmt::format("  force partitioning: {:.3g} s per sample ({} potentials, {:.0f} iterations each on "
                           "average, from rest), {} samples per wingbeat: about {:.2f} x the cost of the run without "
-                          "(an upper bound: in a run each sample starts from the last ones' potentials)\n",
+                          "(usually high: this sample starts from zero potentials, a run's from the last ones')\n",
                           sample_s, partition->components().size() * s.fpm.parts.size(),
                           partition->mean_potential_iterations(), s.fpm.samples_per_cycle,
                           step_s > 0 ? 1 + sample_s / (steps_per_sample * step_s) : 0.0);
