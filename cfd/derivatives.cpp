@@ -62,15 +62,25 @@ std::vector<DerivativeRunFailure> make_derivative_runs(const AeroModel& model, c
                                                        const std::vector<int>& columns, std::ostream* log) {
   const ReferenceQuantities ref = reference_quantities(insect, kin, fluid);
   std::vector<DerivativeRunFailure> failed;
-  for (int j : columns)
-    for (int sign : {+1, -1}) {
-      try {
-        model.run(insect, kin, derivative_perturbation(ref, relative_step, relative_rate_step, j, sign), AeroRunOptions{});
-      } catch (const SolveError& e) {
-        failed.push_back({j, sign, e.what()});
-        if (log) *log << "derivatives: " << e.what() << "; the other runs go on\n" << std::flush;
-      }
+  std::vector<std::pair<int, int>> deferred;  // runs another process is computing: asked for again at the end
+  auto make = [&](int j, int sign, bool defer) {
+    AeroRunOptions o;
+    o.defer_held = defer;
+    try {
+      model.run(insect, kin, derivative_perturbation(ref, relative_step, relative_rate_step, j, sign), o);
+    } catch (const RunHeldElsewhere& e) {
+      deferred.emplace_back(j, sign);
+      if (log) *log << "derivatives: " << e.what() << "; going on with the next run\n" << std::flush;
+    } catch (const SolveError& e) {
+      failed.push_back({j, sign, e.what()});
+      if (log) *log << "derivatives: " << e.what() << "; the other runs go on\n" << std::flush;
     }
+  };
+  for (int j : columns)
+    for (int sign : {+1, -1}) make(j, sign, true);
+  // The runs held elsewhere: waited for (and reused), or made here if their process ended without them.
+  const auto held = std::move(deferred);
+  for (const auto& [j, sign] : held) make(j, sign, false);
   return failed;
 }
 

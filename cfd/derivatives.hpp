@@ -45,7 +45,9 @@ struct DerivativeRunFailure {
 // Makes every run of the given columns once, in table order (u+, u-, w+, ...), and goes on past a run that throws
 // SolveError (a CFD run that diverged): the model keeps the runs that finished (the CFD model in memory and in its
 // cache), so cycle_averaged_derivatives over the columns whose two runs finished then runs nothing new, and a rerun
-// of a study repeats only the failed runs. Returns the failures (empty: every run finished).
+// of a study repeats only the failed runs. A run another process is computing (a campaign sharing the CFD run cache)
+// is passed over and waited for after the others (AeroRunOptions::defer_held). Returns the failures (empty: every run
+// finished).
 std::vector<DerivativeRunFailure> make_derivative_runs(const AeroModel& model, const Insect& insect,
                                                        const Kinematics& kin, const FluidProperties& fluid,
                                                        double relative_step, double relative_rate_step,

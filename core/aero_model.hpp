@@ -35,6 +35,9 @@ struct WrenchHistory {
 struct AeroRunOptions {
   int cycles = 1;               // cycles run; the last is returned (1 suffices for the quasi-steady model)
   int samples_per_cycle = 0;    // 0: the model's own default
+  // A model whose runs are shared between processes (the CFD model's run cache): a run another process is computing
+  // throws RunHeldElsewhere (core/errors.hpp) instead of waiting for it. Other models ignore it.
+  bool defer_held = false;
 };
 
 class AeroModel {

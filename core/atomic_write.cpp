@@ -4,7 +4,9 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <regex>
 #include <set>
@@ -148,6 +150,45 @@ ExclusiveRun::~ExclusiveRun() {
     ::flock(fd_, LOCK_UN);
     ::close(fd_);
   }
+}
+
+FileLock::FileLock(const std::string& path, Mode mode) : path_(path) {
+  make_parent(fs::path(path));
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (fd_ < 0) throw OutputError(output_failure("create the lock file", path, errno));
+  const int how = LOCK_EX | (mode == Mode::try_only ? LOCK_NB : 0);
+  while (::flock(fd_, how) != 0) {
+    const int err = errno;
+    if (err == EINTR) continue;
+    if (err == EWOULDBLOCK && mode == Mode::try_only) return;
+    ::close(fd_);
+    fd_ = -1;
+    throw OutputError(output_failure("lock", path, err));
+  }
+  held_ = true;
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  const std::time_t now = std::time(nullptr);
+  char when[32] = {};
+  std::strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
+  const std::string text = std::string(host) + " pid " + std::to_string(::getpid()) + " since " + when + "\n";
+  if (::ftruncate(fd_, 0) == 0) {
+    [[maybe_unused]] const auto w = ::pwrite(fd_, text.data(), text.size(), 0);
+  }
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) {
+    if (held_) ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+}
+
+std::string FileLock::holder(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
 }
 
 int remove_stale_temporaries(const std::string& directory) {

@@ -32,6 +32,32 @@ class ExclusiveRun {
   int fd_ = -1;
 };
 
+// An exclusive lock on a file (flock), held for the object's lifetime and released when the process ends, however
+// it ends (a killed holder never leaves a stale lock). The processes of a campaign (several copies of one command
+// sharing a CFD run cache, docs/user-guide.md "Campaigns") claim runs with it. The lock file is created when
+// missing and left in place (removing it would let two processes lock two different files of one name); its text
+// names the holder (host, process id, time). flock works on local file systems and on NFS (Linux emulates it with
+// byte-range locks); on Lustre it needs the `flock` mount option.
+class FileLock {
+ public:
+  enum class Mode { wait, try_only };
+  // Mode::wait blocks until the lock is free; Mode::try_only returns at once (held() says whether it was got).
+  // OutputError naming the path when the file cannot be created or locked for another reason.
+  FileLock(const std::string& path, Mode mode);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  bool held() const { return held_; }
+  const std::string& path() const { return path_; }
+  // The holder's text ("host pid N since TIME"), or "" when it cannot be read: for messages while waiting.
+  static std::string holder(const std::string& path);
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  bool held_ = false;
+};
+
 // The message of an output failure: "cannot <what> PATH: <strerror(err)>".
 std::string output_failure(const std::string& what, const std::string& path, int err);
 

@@ -32,6 +32,13 @@ class SolveError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Thrown by a model asked not to wait (AeroRunOptions::defer_held) for a run another process is computing (a campaign:
+// several copies of one command sharing a run cache); the caller goes on with other runs and asks again later.
+class RunHeldElsewhere : public SolveError {
+ public:
+  using SolveError::SolveError;
+};
+
 // Thrown when an output cannot be written (disk full, read-only file system, permission denied): what() names
 // the path and the operating system's reason. Whatever the command had written of its set is removed.
 class OutputError : public std::runtime_error {

@@ -160,6 +160,17 @@ std::vector<CycleRecord> cycles_from(const nlohmann::json& a) {
   return out;
 }
 
+// Locks `path` (a campaign's claim on the hover, a run or the continued hover), waiting while another process holds it
+// and saying so.
+template <class Say>
+void claim(std::optional<FileLock>& lock, const std::string& path, const std::string& what, const Say& say) {
+  lock.emplace(path, FileLock::Mode::try_only);
+  if (lock->held()) return;
+  say(fmt::format("cfd model: waiting for {}, which another process is making ({}: {})\n", what, path,
+                  FileLock::holder(path)));
+  lock.emplace(path, FileLock::Mode::wait);
+}
+
 std::optional<nlohmann::json> read_json(const std::string& path, const std::string& key) {
   std::ifstream in(path);
   if (!in) return std::nullopt;
@@ -184,7 +195,7 @@ struct CfdModel::State {
   SimulationState hover_state;
   std::vector<CfdLoadRow> hover_rows;
   std::unique_ptr<Simulation> ref_sim;
-  std::optional<SimulationState> ref_end;  // the reference's state after its last cycle (from the cache)
+  bool ref_on_file = false;  // the reference's cycles came from the cache: its state is read from there when needed
   std::vector<CycleRecord> ref_cycles;
   std::vector<std::vector<CfdLoadRow>> ref_rows;
   std::vector<CfdRunRecord> records;
@@ -246,6 +257,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     st->perturbed_settings = {s.perturbation_tolerance, 2, s.max_cycles, weight, weight * insect.wing.mean_chord};
     CfdRunRecord rec;
     rec.label = "hover";
+    // Processes sharing the cache (a campaign) make the hover once: the others wait for it and reuse it.
+    std::optional<FileLock> hover_lock;
+    if (!cache_.empty()) claim(hover_lock, file("hover.lock"), "the hover", say);
     const auto cached = cache_.empty() ? std::nullopt : read_json(file("hover.json"), st->key);
     if (cached && fs::exists(file("hover.h5"))) {
       const CheckpointReader ck(file("hover.h5"));
@@ -288,11 +302,10 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       }
     }
     if (!cache_.empty()) {
-      if (const auto r = read_json(file("reference.json"), st->key); r && fs::exists(file("reference.h5"))) {
+      if (const auto r = read_json(file("reference.json"), st->key)) {
         st->ref_cycles = cycles_from(r->at("cycles"));
         for (const auto& c : r->at("rows")) st->ref_rows.push_back(rows_from(c));
-        const CheckpointReader ck(file("reference.h5"));
-        st->ref_end = read_state(ck, plan_grid(st->plan).shape());
+        st->ref_on_file = true;
       }
     }
     st->records.push_back(rec);
@@ -322,7 +335,24 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   rec.other_kinematics = !base_kin;
   std::vector<CfdLoadRow> diff;
   const int number = ++st.runs;
-  if (const auto cached = cache_.empty() ? std::nullopt : read_json(run_file, run_key)) {
+  auto cached = cache_.empty() ? std::nullopt : read_json(run_file, run_key);
+  // Processes sharing the cache (a campaign) each make the runs no other one holds.
+  std::optional<FileLock> run_lock;
+  if (!cached && !cache_.empty()) {
+    const std::string lock = file("run_" + run_key + ".lock");
+    if (options.defer_held) {
+      run_lock.emplace(lock, FileLock::Mode::try_only);
+      if (!run_lock->held()) {
+        --st.runs;
+        throw RunHeldElsewhere(fmt::format("cfd model: run {} ({}) is being made by another process ({})", number,
+                                           label, FileLock::holder(lock)));
+      }
+    } else {
+      claim(run_lock, lock, fmt::format("run {} ({})", number, label), say);
+    }
+    cached = read_json(run_file, run_key);  // finished by another process before the lock was got
+  }
+  if (cached) {
     rec.cycles = cycles_from(cached->at("cycles"));
     rec.converged = cached->at("converged").get<bool>();
     rec.wall_seconds = cached->at("wall_s").get<double>();
@@ -394,11 +424,39 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                                                   ? fmt::format(" (its state after wingbeat {} is kept in {})", k - 1, partial_h5)
                                                   : std::string()));
       }
-      // The reference at the same wingbeat.
+      // The reference at the same wingbeat: one process at a time extends it (a campaign), after taking what the
+      // others added.
+      std::optional<FileLock> ref_lock;
+      if (int(st.ref_cycles.size()) < k && !cache_.empty()) {
+        claim(ref_lock, file("reference.lock"), "the continued hover", say);
+        if (const auto r = read_json(file("reference.json"), st.key); r && r->at("cycles").size() > st.ref_cycles.size()) {
+          st.ref_cycles = cycles_from(r->at("cycles"));
+          st.ref_rows.clear();
+          for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));
+          st.ref_sim.reset();
+          st.ref_on_file = true;
+        }
+      }
       while (int(st.ref_cycles.size()) < k) {
         if (!st.ref_sim) {
           st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan);
-          st.ref_sim->restore(st.ref_end ? *st.ref_end : st.hover_state);
+          std::optional<SimulationState> end;  // the cached reference's state after its last wingbeat
+          const long end_step = st.hover_state.step + long(st.ref_cycles.size()) * n;
+          if (st.ref_on_file && !st.ref_cycles.empty() && fs::exists(file("reference.h5"))) {
+            const CheckpointReader ck(file("reference.h5"));
+            end = read_state(ck, plan_grid(st.plan).shape());
+            if (end->step != end_step) end.reset();
+          }
+          if (!end && !st.ref_cycles.empty()) {
+            // A state that does not belong to the kept cycles (killed between the two writes): the reference is made
+            // again from the hover (the same steps, the same numbers).
+            say(fmt::format("  the kept continued hover ({}) does not end at its {} wingbeats; it is made again\n",
+                            file("reference.h5"), st.ref_cycles.size()));
+            st.ref_cycles.clear();
+            st.ref_rows.clear();
+          }
+          st.ref_on_file = false;
+          st.ref_sim->restore(end ? *end : st.hover_state);
         }
         std::vector<CfdLoadRow> rr;
         for (int i = 0; i < n; ++i) rr.push_back(st.ref_sim->advance().row);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <sstream>
 #include "common/case_text.hpp"
 #include "core/types.hpp"
@@ -369,11 +370,15 @@ TEST(CfdCli, InterruptWritesACheckpointAndRestartContinues) {
 // A killed analysis resumed with the same command gives the same results as an uninterrupted one (the CFD stability
 // chain, docs/theory/cfd-stability.md): the hover state and every finished run are kept in cfd_runs/ and reused
 // bit for bit, the rest is run from the kept hover. The tiny moth at Re 20, the longitudinal table (6 runs).
+// A whole CFD analysis in about 20 s: the tiny grid at Re 20, a short hover, the longitudinal table (6 runs).
+std::string small_cfd_analysis() {
+  return with_cfd(std::string(tiny) + "steps_per_cycle = 100\nreynolds = 20\ncycles = 2\nhover_tolerance = 0.5\n"
+                                       "max_cycles = 3\nperturbation_tolerance = 0.003\ntrim_iterations = 0\n") +
+         "\n[derivatives]\nrelative_step = 0.1\ncolumns = \"longitudinal\"\n";
+}
+
 TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
-  std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 100\nreynolds = 20\ncycles = 2\n"
-                                                   "hover_tolerance = 0.5\nmax_cycles = 3\nperturbation_tolerance = 0.003\n"
-                                                   "trim_iterations = 0\n");
-  text += "\n[derivatives]\nrelative_step = 0.1\ncolumns = \"longitudinal\"\n";
+  const std::string text = small_cfd_analysis();
   const std::string path = write_temp("cfdcli_resume.toml", text);
   const fs::path whole = fs::path(path).parent_path() / "cfdcli_resume_whole";
   const fs::path killed = fs::path(path).parent_path() / "cfdcli_resume_killed";
@@ -426,6 +431,69 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
   EXPECT_TRUE(a["derivatives"]["planes"]["longitudinal"].get<bool>());
   EXPECT_FALSE(a["derivatives"]["planes"]["lateral"].get<bool>());
   EXPECT_NE(a["derivatives"]["nondimensional"]["Xu"].get<double>(), 0.0);
+}
+
+// A campaign: the same analysis started twice at once into one output directory (with mpiexec -n 2 where there is
+// one, as on a cluster) shares the run cache: the hover is made once, the derivative runs are split between the two
+// processes, and both write the table of the analysis run alone.
+TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
+  const std::string text = small_cfd_analysis();
+  const std::string path = write_temp("cfdcli_campaign.toml", text);
+  const fs::path alone = fs::path(path).parent_path() / "cfdcli_campaign_alone";
+  const fs::path shared = fs::path(path).parent_path() / "cfdcli_campaign_shared";
+  fs::remove_all(alone);
+  fs::remove_all(shared);
+  const std::string err_alone = write_temp("cfd_campaign_alone.txt", "");
+  ASSERT_EQ(WEXITSTATUS(std::system((std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + alone.string() +
+                                     " > /dev/null 2> " + err_alone).c_str())),
+            0);
+  const fs::path logs = fs::path(path).parent_path() / "cfdcli_campaign_logs";
+  fs::remove_all(logs);
+  fs::create_directories(logs);
+  const std::string one = std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + shared.string() + " > /dev/null";
+#ifdef FLAPSTAB_MPIEXEC
+  // Each rank writes its own log (OMPI_COMM_WORLD_RANK under Open MPI, PMI_RANK under MPICH).
+  const std::string launch = std::string(FLAPSTAB_MPIEXEC) +
+                             (std::getenv("FLAPSTAB_TEST_MPI_FLAGS") ? std::getenv("FLAPSTAB_TEST_MPI_FLAGS")
+                                                                      : " --allow-run-as-root --oversubscribe --bind-to none") +
+                             " -n 2 bash -c '" + one + " 2> " + logs.string() +
+                             "/rank${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-x}}.txt'";
+#else
+  const std::string launch = "bash -c '" + one + " 2> " + logs.string() + "/rank0.txt & a=$!; " + one + " 2> " +
+                             logs.string() + "/rank1.txt & b=$!; wait $a && wait $b'";
+#endif
+  ASSERT_EQ(WEXITSTATUS(std::system(launch.c_str())), 0) << launch;
+  auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  auto count = [](const std::string& s, const std::string& what) {
+    int n = 0;
+    for (std::size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+    return n;
+  };
+  const std::string a = slurp(logs / "rank0.txt"), b = slurp(logs / "rank1.txt");
+  ASSERT_FALSE(a.empty());
+  ASSERT_FALSE(b.empty());
+  // The hover once; the six derivative runs once each, by both processes.
+  EXPECT_EQ(count(a, "hover from rest") + count(b, "hover from rest"), 1) << a << b;
+  auto made = [](const std::string& s) {
+    const std::regex done("cfd model: run [0-9]+ done:");
+    return int(std::distance(std::sregex_iterator(s.begin(), s.end(), done), std::sregex_iterator()));
+  };
+  const int made_a = made(a), made_b = made(b);
+  EXPECT_EQ(made_a + made_b, 6) << a << b;
+  EXPECT_GE(made_a, 1) << a;
+  EXPECT_GE(made_b, 1) << b;
+  auto results = [](const fs::path& dir) { return nlohmann::json::parse(std::ifstream(dir / "results.json")); };
+  const nlohmann::json x = results(alone), y = results(shared);
+  ASSERT_TRUE(x.contains("derivatives"));
+  EXPECT_EQ(x["derivatives"]["nondimensional"], y["derivatives"]["nondimensional"]);
+  EXPECT_EQ(x["derivatives"]["standard_error_nondimensional"], y["derivatives"]["standard_error_nondimensional"]);
+  EXPECT_EQ(x["cfd"]["floquet_longitudinal"], y["cfd"]["floquet_longitudinal"]);
+  EXPECT_EQ(x["cfd"]["continued_hover"], y["cfd"]["continued_hover"]);
 }
 
 TEST(CfdCli, HelpDescribesTheOptions) {

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include "cfd/navier_stokes/cfd_model.hpp"
@@ -135,6 +138,41 @@ TEST(CfdModel, CachedRunsAreReusedBitForBit) {
     EXPECT_EQ(bq.samples[i].total().moment, aq.samples[i].total().moment) << i;
     EXPECT_EQ(b0.samples[i].total().force, a0.samples[i].total().force) << i;
   }
+  fs::remove_all(fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())));
+}
+
+// A process killed between writing the continued hover's state and its cycles leaves a state one wingbeat ahead of
+// them: the next process sees it by the state's step, makes the continued hover again from the kept hover, and its
+// answers are those of a run on a fresh cache, bit for bit.
+TEST(CfdModel, AContinuedHoverStateAheadOfItsCyclesIsMadeAgain) {
+  const Case c = model_case("model_ref_ahead.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n"
+                                                    "perturbation_tolerance = 0.5\n");
+  const std::string dir = fresh_dir("ref_ahead"), clean = fresh_dir("ref_clean");
+  BodyMotion u, w;
+  u.velocity.x() = 0.05;
+  w.velocity.z() = 0.05;
+  {
+    const CfdModel first(c, nullptr, dir);
+    first.run(c.insect, c.kinematics, u, AeroRunOptions{});
+    ASSERT_EQ(first.reference_cycles().size(), 3u);
+  }
+  // Drop the last wingbeat from reference.json, as if the process had died before writing it.
+  nlohmann::json ref = nlohmann::json::parse(std::ifstream(dir + "/reference.json"));
+  ref["cycles"].erase(ref["cycles"].size() - 1);
+  ref["rows"].erase(ref["rows"].size() - 1);
+  std::ofstream(dir + "/reference.json") << ref.dump(1);
+  std::ostringstream log;
+  const CfdModel second(c, &log, dir);
+  const WrenchHistory a = second.run(c.insect, c.kinematics, w, AeroRunOptions{});
+  EXPECT_NE(log.str().find("does not end at its 2 wingbeats"), std::string::npos) << log.str();
+  const CfdModel fresh(c, nullptr, clean);
+  const WrenchHistory b = fresh.run(c.insect, c.kinematics, w, AeroRunOptions{});
+  ASSERT_EQ(a.samples.size(), b.samples.size());
+  for (std::size_t i = 0; i < a.samples.size(); ++i) {
+    EXPECT_EQ(a.samples[i].total().force, b.samples[i].total().force) << i;
+    EXPECT_EQ(a.samples[i].total().moment, b.samples[i].total().moment) << i;
+  }
+  EXPECT_EQ(second.reference_cycles().size(), fresh.reference_cycles().size());
   fs::remove_all(fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())));
 }
 

@@ -5,6 +5,7 @@
 #include <sstream>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <csignal>
 #include <cstdlib>
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
@@ -117,6 +118,44 @@ TEST(AtomicWrite, StaleTemporariesOfDeadProcessesAreRemoved) {
   EXPECT_FALSE(fs::exists(dir / "x.h5.tmp.4194305"));
   EXPECT_TRUE(fs::exists(dir / ("y.csv.tmp." + std::to_string(::getpid()))));
   EXPECT_TRUE(fs::exists(dir / "z.csv"));
+}
+
+// A campaign's claim: a second claimant is refused while the first holds the lock, a waiting one gets it when the
+// holder ends (here a child process that dies without releasing anything), and the file names the holder.
+TEST(FileLock, OneHolderAtATimeAndReleasedWhenTheHolderEnds) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("flapstab_file_lock_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string path = (dir / "sub" / "run_1.lock").string();
+  {
+    FileLock a(path, FileLock::Mode::try_only);
+    ASSERT_TRUE(a.held());  // the directory is created
+    EXPECT_NE(FileLock::holder(path).find("pid " + std::to_string(::getpid())), std::string::npos)
+        << FileLock::holder(path);
+    const FileLock b(path, FileLock::Mode::try_only);
+    EXPECT_FALSE(b.held());
+  }
+  const FileLock c(path, FileLock::Mode::try_only);
+  EXPECT_TRUE(c.held());
+  // A child holds it and is killed: the lock is free again, and a waiting claimant gets it.
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const FileLock mine((dir / "child.lock").string(), FileLock::Mode::wait);
+    [[maybe_unused]] const auto w = ::write(ready[1], "x", 1);
+    ::pause();
+    std::_Exit(0);
+  }
+  char x = 0;
+  ASSERT_EQ(::read(ready[0], &x, 1), 1);
+  EXPECT_FALSE(FileLock((dir / "child.lock").string(), FileLock::Mode::try_only).held());
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+  EXPECT_TRUE(FileLock((dir / "child.lock").string(), FileLock::Mode::wait).held());
+  ::close(ready[0]);
+  ::close(ready[1]);
+  fs::remove_all(dir);
 }
 
 }  // namespace
