@@ -2,6 +2,9 @@
 // measured against the continued hover, the settings honoured, and the run cache that makes analyses resumable.
 #include <gtest/gtest.h>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -183,6 +186,47 @@ TEST(CfdModel, AdaptiveStepIsAnInputError) {
   const CfdModel model(c, nullptr);
   testing::expect_input_error([&] { model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{}); },
                               "aero.cfd.steps_per_cycle");
+}
+
+// Probe (not run by default): how a steady pitch-rate run's moment difference from the continued hover grows with
+// the rate, wingbeat by wingbeat, to tell a rate derivative (the difference scales with q at every wingbeat) from a
+// response that does not scale (docs/validation.md, "CFD stability chain"). Environment: PROBE_CASE (default the
+// shipped fruit fly), PROBE_CPC (cells per chord, default 8), PROBE_RATES (pitch rates in rad/s, comma-separated,
+// default 41,20.5,10.25), PROBE_WINGBEATS (default 8), PROBE_BELOW_R and PROBE_SIDE_R (the box, default the case's),
+// PROBE_CACHE (the run cache, default none).
+TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
+  auto env = [](const char* k, const std::string& d) { return std::getenv(k) ? std::string(std::getenv(k)) : d; };
+  Case c = load_case(env("PROBE_CASE", std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/fruitfly_cfd.toml"));
+  CfdSettings& s = c.aero.cfd;
+  s.cells_per_chord = std::stod(env("PROBE_CPC", "8"));
+  s.max_cycles = std::stoi(env("PROBE_WINGBEATS", "8"));
+  s.perturbation_tolerance = 1e-12;  // every run goes the whole PROBE_WINGBEATS
+  if (std::getenv("PROBE_BELOW_R")) s.below_R = std::stod(env("PROBE_BELOW_R", ""));
+  if (std::getenv("PROBE_SIDE_R")) s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
+  std::vector<double> rates;
+  std::stringstream list(env("PROBE_RATES", "41,20.5,10.25"));
+  for (std::string item; std::getline(list, item, ',');) rates.push_back(std::stod(item));
+  const CfdModel model(c, &std::cerr, env("PROBE_CACHE", ""));
+  model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+  const double wc = c.insect.weight() * c.insect.wing.mean_chord;
+  for (double q : rates) {
+    BodyMotion m;
+    m.rate.y() = q;
+    model.run(c.insect, c.kinematics, m, AeroRunOptions{});
+  }
+  const auto& ref = model.reference_cycles();
+  std::fprintf(stderr, "pitch moment difference from the continued hover, per wingbeat, in units of W c (W c = %.4g N m); "
+                       "and divided by q (W c s)\n", wc);
+  for (std::size_t r = 0; r < rates.size(); ++r) {
+    const CfdRunRecord& rec = model.records().at(r + 1);
+    std::fprintf(stderr, "q = %+8.4g rad/s:", rates[r]);
+    for (std::size_t k = 0; k < rec.cycles.size() && k < ref.size(); ++k)
+      std::fprintf(stderr, " %+.4e", (rec.cycles[k].mean.moment.y() - ref[k].mean.moment.y()) / wc);
+    std::fprintf(stderr, "\n   / q   :");
+    for (std::size_t k = 0; k < rec.cycles.size() && k < ref.size(); ++k)
+      std::fprintf(stderr, " %+.4e", (rec.cycles[k].mean.moment.y() - ref[k].mean.moment.y()) / wc / rates[r]);
+    std::fprintf(stderr, "\n");
+  }
 }
 
 }  // namespace
