@@ -141,7 +141,8 @@ nlohmann::json cycles_json(const std::vector<CycleRecord>& cycles) {
     a.push_back({{"cycle", c.cycle},
                  {"mean_force_N", {c.mean.force.x(), c.mean.force.y(), c.mean.force.z()}},
                  {"mean_moment_N_m", {c.mean.moment.x(), c.mean.moment.y(), c.mean.moment.z()}},
-                 {"change", c.change}});
+                 {"change", c.change},
+                 {"drift", c.drift}});
   return a;
 }
 
@@ -155,6 +156,7 @@ std::vector<CycleRecord> cycles_from(const nlohmann::json& a) {
       r.mean.moment[i] = c.at("mean_moment_N_m").at(std::size_t(i)).get<double>();
     }
     r.change = c.at("change").get<double>();
+    r.drift = c.value("drift", -1.0);  // absent in caches written before it was computed
     out.push_back(r);
   }
   return out;
@@ -487,19 +489,12 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       // The window: the second half of the wingbeats so far (the start-up of the perturbation left out); its
       // mean difference and the standard error of that mean.
       const int first = k / 2 + 1, count = k - first + 1;
-      Wrench sum;
-      for (int j = first; j <= k; ++j) sum += mean_of(history[std::size_t(j - 1)]);
-      const Wrench avg{sum.force / count, sum.moment / count};
-      if (count >= 2) {
-        Vec3 vf = Vec3::Zero(), vm = Vec3::Zero();
-        for (int j = first; j <= k; ++j) {
-          const Wrench e = mean_of(history[std::size_t(j - 1)]);
-          vf += (e.force - avg.force).cwiseAbs2();
-          vm += (e.moment - avg.moment).cwiseAbs2();
-        }
-        const double sf = std::sqrt(vf.sum() / (count - 1) / count), sm = std::sqrt(vm.sum() / (count - 1) / count);
-        cr.change = std::max(sf / st.perturbed_settings.force_scale, sm / st.perturbed_settings.moment_scale);
-      }
+      std::vector<Wrench> window;
+      for (int j = first; j <= k; ++j) window.push_back(mean_of(history[std::size_t(j - 1)]));
+      const WindowStatistics ws = window_statistics(window, st.perturbed_settings);
+      const Wrench& avg = ws.mean;
+      cr.change = ws.standard_error;
+      cr.drift = ws.drift;
       diff.assign(std::size_t(n), CfdLoadRow{});
       for (int j = first; j <= k; ++j)
         for (int i = 0; i < n; ++i) diff[std::size_t(i)] = combine(diff[std::size_t(i)], history[std::size_t(j - 1)][std::size_t(i)], 1.0 / count);
@@ -507,10 +502,11 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       rec.cycles.push_back(cr);
       say(fmt::format("  wingbeat {:>2}: difference from the hover dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, dM = ({:+.4e}, "
                       "{:+.4e}, {:+.4e}) N m; mean of wingbeats {}-{}: dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, standard "
-                      "error {}\n",
+                      "error {}, drift across it {}\n",
                       k, d.force.x(), d.force.y(), d.force.z(), d.moment.x(), d.moment.y(), d.moment.z(), first, k,
                       avg.force.x(), avg.force.y(), avg.force.z(),
-                      cr.change < 0 ? std::string("-") : fmt::format("{:.2e}", cr.change)));
+                      cr.change < 0 ? std::string("-") : fmt::format("{:.2e}", cr.change),
+                      cr.drift < 0 ? std::string("-") : fmt::format("{:.2e}", cr.drift)));
       if (cr.change >= 0 && cr.change < st.perturbed_settings.tolerance) {
         rec.converged = true;
         break;

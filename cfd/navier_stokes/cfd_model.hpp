@@ -39,6 +39,7 @@ struct CfdRunRecord {
   double wall_seconds = 0;
   bool reused = false;            // read from the cache directory
   double final_change() const { return cycles.empty() ? -1 : cycles.back().change; }
+  double final_drift() const { return cycles.empty() ? -1 : cycles.back().drift; }
 };
 
 class CfdModel final : public AeroModel {

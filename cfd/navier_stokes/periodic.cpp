@@ -2,6 +2,7 @@
 #include "cfd/navier_stokes/periodic.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <ostream>
 #include <fmt/format.h>
 
@@ -9,6 +10,29 @@ namespace flapstab::ns {
 
 double cycle_change(const Wrench& a, const Wrench& b, const PeriodicSettings& s) {
   return std::max((a.force - b.force).norm() / s.force_scale, (a.moment - b.moment).norm() / s.moment_scale);
+}
+
+WindowStatistics window_statistics(const std::vector<Wrench>& means, const PeriodicSettings& s) {
+  WindowStatistics w;
+  const int n = int(means.size());
+  if (n == 0) return w;
+  for (const auto& m : means) w.mean += m;
+  w.mean = Wrench{w.mean.force / n, w.mean.moment / n};
+  if (n < 2) return w;
+  double vf = 0, vm = 0, sjj = 0;
+  Vec3 bf = Vec3::Zero(), bm = Vec3::Zero();
+  for (int j = 0; j < n; ++j) {
+    const Vec3 ef = means[std::size_t(j)].force - w.mean.force, em = means[std::size_t(j)].moment - w.mean.moment;
+    vf += ef.squaredNorm();
+    vm += em.squaredNorm();
+    const double x = j - 0.5 * (n - 1);
+    sjj += x * x;
+    bf += x * ef;
+    bm += x * em;
+  }
+  w.standard_error = std::max(std::sqrt(vf / (n - 1) / n) / s.force_scale, std::sqrt(vm / (n - 1) / n) / s.moment_scale);
+  w.drift = (n - 1) * std::max(bf.norm() / sjj / s.force_scale, bm.norm() / sjj / s.moment_scale);
+  return w;
 }
 
 PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label) {

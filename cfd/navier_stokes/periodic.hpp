@@ -27,6 +27,10 @@ struct CycleRecord {
   int cycle = 0;       // 1, 2, ... within the run
   Wrench mean;         // cycle mean of the total wrench (N, N m; about O, stability axes)
   double change = -1;  // relative change from the previous cycle (-1 for the first)
+  // Perturbed runs (cfd_model.hpp): the change that the least-squares trend of the per-wingbeat mean difference makes
+  // across the averaging window, the largest over the components, as a fraction of the weight (moments: of weight x
+  // mean chord); -1 where not computed. A window whose mean has a small standard error can still drift.
+  double drift = -1;
 };
 
 struct PeriodicRun {
@@ -39,6 +43,15 @@ struct PeriodicRun {
 
 // Relative change between two cycle means.
 double cycle_change(const Wrench& a, const Wrench& b, const PeriodicSettings& s);
+
+// The averaging window of a perturbed run (cfd_model.hpp): the mean of its wingbeat means, the standard error of that
+// mean, and the change the least-squares trend of the wingbeat means makes across the window, both as fractions of
+// the scales (the larger of force / force_scale and moment / moment_scale, vector norms); -1 with one wingbeat.
+struct WindowStatistics {
+  Wrench mean;
+  double standard_error = -1, drift = -1;
+};
+WindowStatistics window_statistics(const std::vector<Wrench>& means, const PeriodicSettings& s);
 
 // Advances `sim` wingbeat by wingbeat until converged (or max_cycles); a progress line per wingbeat on `log`
 // starting with `label`. SolveError if the plan has no fixed step or the simulation is not on a wingbeat boundary;

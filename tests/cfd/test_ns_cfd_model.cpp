@@ -43,6 +43,28 @@ std::string fresh_dir(const std::string& name) {
 
 // The hover runs at least [aero.cfd] cycles wingbeats, stops once the cycle-to-cycle change is below
 // hover_tolerance (or at max_cycles), and its last wingbeat is the answer for the unperturbed state.
+// The window statistics of a perturbed run: a constant sequence has no error and no drift; a straight line
+// a + b j over n wingbeats drifts by exactly |b| (n - 1) (scaled), and its standard error is that of the sample;
+// scatter without a trend does not drift.
+TEST(WindowStatistics, DriftIsTheTrendAcrossTheWindow) {
+  const PeriodicSettings s{0.01, 2, 12, 2.0, 0.5};  // tolerance, min, max cycles, force scale, moment scale
+  auto w = [](double fx, double my) { return Wrench{Vec3(fx, 0, 0), Vec3(0, my, 0)}; };
+  const WindowStatistics flat = window_statistics({w(1, 2), w(1, 2), w(1, 2), w(1, 2)}, s);
+  EXPECT_DOUBLE_EQ(flat.mean.force.x(), 1.0);
+  EXPECT_DOUBLE_EQ(flat.standard_error, 0.0);
+  EXPECT_DOUBLE_EQ(flat.drift, 0.0);
+  // Moments rising by 0.01 per wingbeat over 5 wingbeats: 0.04 across the window, / 0.5 = 0.08.
+  const WindowStatistics line = window_statistics({w(1, 0.00), w(1, 0.01), w(1, 0.02), w(1, 0.03), w(1, 0.04)}, s);
+  EXPECT_NEAR(line.drift, 0.08, 1e-12);
+  EXPECT_NEAR(line.mean.moment.y(), 0.02, 1e-15);
+  EXPECT_NEAR(line.standard_error, std::sqrt(0.00025 / 5) / 0.5, 1e-12);  // sample variance 2.5e-4
+  // Scatter without a trend (symmetric about the window's middle): a standard error, no drift.
+  const WindowStatistics bump = window_statistics({w(1, 0.0), w(1, 0.02), w(1, 0.02), w(1, 0.0)}, s);
+  EXPECT_NEAR(bump.drift, 0.0, 1e-15);
+  EXPECT_NEAR(bump.standard_error, std::sqrt(4e-4 / 3 / 4) / 0.5, 1e-12);
+  EXPECT_EQ(window_statistics({w(1, 2)}, s).drift, -1);
+}
+
 TEST(CfdModel, HoverHonoursCyclesToleranceAndMaxCycles) {
   for (const auto& [keys, min_cycles, max_cycles] :
        {std::tuple<std::string, int, int>{"cycles = 3\nhover_tolerance = 0.5\nmax_cycles = 6\n", 3, 6},
