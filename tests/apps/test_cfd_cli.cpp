@@ -435,7 +435,7 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
 
 // A campaign: the same analysis started twice at once into one output directory (with mpiexec -n 2 where there is
 // one, as on a cluster) shares the run cache: the hover is made once, the derivative runs are split between the two
-// processes, and both write the table of the analysis run alone.
+// processes, and both write the table of the analysis run alone; a copy killed half-way loses nothing.
 TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   const std::string text = small_cfd_analysis();
   const std::string path = write_temp("cfdcli_campaign.toml", text);
@@ -494,6 +494,23 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   EXPECT_EQ(x["derivatives"]["standard_error_nondimensional"], y["derivatives"]["standard_error_nondimensional"]);
   EXPECT_EQ(x["cfd"]["floquet_longitudinal"], y["cfd"]["floquet_longitudinal"]);
   EXPECT_EQ(x["cfd"]["continued_hover"], y["cfd"]["continued_hover"]);
+
+  // A copy killed in the middle of its run (SIGKILL: its claims end with it): the other copy makes that run too
+  // (from the killed copy's last whole wingbeat, when one was kept) and the table is still the lone run's.
+  const fs::path survived = fs::path(path).parent_path() / "cfdcli_campaign_survived";
+  fs::remove_all(survived);
+  const std::string la = (logs / "survivor.txt").string(), lb = (logs / "killed.txt").string();
+  const std::string copy = std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + survived.string() + " > /dev/null";
+  const std::string script = copy + " 2> " + la + " & a=$!; " + copy + " 2> " + lb + " & b=$!; "
+                             "for i in $(seq 3000); do grep -q \"wingbeat  2: difference\" " + lb +
+                             " 2>/dev/null && break; sleep 0.02; done; kill -KILL $b; wait $b; wait $a";
+  ASSERT_EQ(WEXITSTATUS(std::system(("bash -c '" + script + "'").c_str())), 0);
+  const std::string killed_log = slurp(lb), survivor_log = slurp(la);
+  EXPECT_EQ(made(killed_log), 0) << killed_log;  // killed in its first run
+  EXPECT_EQ(made(survivor_log), 6) << survivor_log;
+  const nlohmann::json z = results(survived);
+  EXPECT_EQ(x["derivatives"]["nondimensional"], z["derivatives"]["nondimensional"]);
+  EXPECT_EQ(x["cfd"]["floquet_longitudinal"], z["cfd"]["floquet_longitudinal"]);
 }
 
 TEST(CfdCli, HelpDescribesTheOptions) {
