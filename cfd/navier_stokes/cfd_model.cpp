@@ -431,7 +431,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       std::optional<FileLock> ref_lock;
       if (int(st.ref_cycles.size()) < k && !cache_.empty()) {
         claim(ref_lock, file("reference.lock"), "the continued hover", say);
-        if (const auto r = read_json(file("reference.json"), st.key); r && r->at("cycles").size() > st.ref_cycles.size()) {
+        const auto r = read_json(file("reference.json"), st.key);
+        if (r && r->at("cycles").size() > st.ref_cycles.size()) {
           st.ref_cycles = cycles_from(r->at("cycles"));
           st.ref_rows.clear();
           for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));

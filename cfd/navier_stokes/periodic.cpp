@@ -30,7 +30,8 @@ WindowStatistics window_statistics(const std::vector<Wrench>& means, const Perio
     bf += x * ef;
     bm += x * em;
   }
-  w.standard_error = std::max(std::sqrt(vf / (n - 1) / n) / s.force_scale, std::sqrt(vm / (n - 1) / n) / s.moment_scale);
+  w.standard_error =
+      std::max(std::sqrt(vf / (n - 1) / n) / s.force_scale, std::sqrt(vm / (n - 1) / n) / s.moment_scale);
   w.drift = (n - 1) * std::max(bf.norm() / sjj / s.force_scale, bm.norm() / sjj / s.moment_scale);
   return w;
 }

@@ -453,9 +453,9 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   const std::string one = std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + shared.string() + " > /dev/null";
 #ifdef FLAPSTAB_MPIEXEC
   // Each rank writes its own log (OMPI_COMM_WORLD_RANK under Open MPI, PMI_RANK under MPICH).
+  const char* flags = std::getenv("FLAPSTAB_TEST_MPI_FLAGS");
   const std::string launch = std::string(FLAPSTAB_MPIEXEC) +
-                             (std::getenv("FLAPSTAB_TEST_MPI_FLAGS") ? std::getenv("FLAPSTAB_TEST_MPI_FLAGS")
-                                                                      : " --allow-run-as-root --oversubscribe --bind-to none") +
+                             (flags ? flags : " --allow-run-as-root --oversubscribe --bind-to none") +
                              " -n 2 bash -c '" + one + " 2> " + logs.string() +
                              "/rank${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-x}}.txt'";
 #else
@@ -500,7 +500,8 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   const fs::path survived = fs::path(path).parent_path() / "cfdcli_campaign_survived";
   fs::remove_all(survived);
   const std::string la = (logs / "survivor.txt").string(), lb = (logs / "killed.txt").string();
-  const std::string copy = std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + survived.string() + " > /dev/null";
+  const std::string copy =
+      std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + survived.string() + " > /dev/null";
   const std::string script = copy + " 2> " + la + " & a=$!; " + copy + " 2> " + lb + " & b=$!; "
                              "for i in $(seq 3000); do grep -q \"wingbeat  2: difference\" " + lb +
                              " 2>/dev/null && break; sleep 0.02; done; kill -KILL $b; wait $b; wait $a";

@@ -224,7 +224,8 @@ TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
   s.max_cycles = std::stoi(env("PROBE_WINGBEATS", "8"));
   s.perturbation_tolerance = 1e-12;  // every run goes the whole PROBE_WINGBEATS
   if (std::getenv("PROBE_BELOW_R")) s.below_R = std::stod(env("PROBE_BELOW_R", ""));
-  if (std::getenv("PROBE_SIDE_R")) s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
+  if (std::getenv("PROBE_SIDE_R"))
+    s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
   std::vector<double> rates;
   std::stringstream list(env("PROBE_RATES", "41,20.5,10.25"));
   for (std::string item; std::getline(list, item, ',');) rates.push_back(std::stod(item));
@@ -237,8 +238,8 @@ TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
     model.run(c.insect, c.kinematics, m, AeroRunOptions{});
   }
   const auto& ref = model.reference_cycles();
-  std::fprintf(stderr, "pitch moment difference from the continued hover, per wingbeat, in units of W c (W c = %.4g N m); "
-                       "and divided by q (W c s)\n", wc);
+  std::fprintf(stderr, "pitch moment difference from the continued hover, per wingbeat, in units of W c "
+                       "(W c = %.4g N m); and divided by q (W c s)\n", wc);
   for (std::size_t r = 0; r < rates.size(); ++r) {
     const CfdRunRecord& rec = model.records().at(r + 1);
     std::fprintf(stderr, "q = %+8.4g rad/s:", rates[r]);
