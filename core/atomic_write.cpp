@@ -62,31 +62,6 @@ void write_temporary(const std::string& tmp, const std::string& path, const std:
   }
 }
 
-// An exclusive flock on DIR/.flapstab.lock for the object's lifetime.
-class DirectoryLock {
- public:
-  explicit DirectoryLock(const std::string& dir) {
-    const std::string path = (fs::path(dir.empty() ? "." : dir) / ".flapstab.lock").string();
-    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-    if (fd_ < 0) throw OutputError(output_failure("lock", dir.empty() ? "." : dir, errno));
-    while (::flock(fd_, LOCK_EX) != 0)
-      if (errno != EINTR) {
-        const int err = errno;
-        ::close(fd_);
-        throw OutputError(output_failure("lock", dir, err));
-      }
-  }
-  ~DirectoryLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  DirectoryLock(const DirectoryLock&) = delete;
-  DirectoryLock& operator=(const DirectoryLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
-
 }  // namespace
 
 void write_files_atomic(const std::vector<std::pair<std::string, std::string>>& files) {
@@ -95,8 +70,11 @@ void write_files_atomic(const std::vector<std::pair<std::string, std::string>>& 
     make_parent(fs::path(path));
     dirs.insert(fs::path(path).parent_path().string());
   }
-  std::vector<std::unique_ptr<DirectoryLock>> locks;  // in sorted order: two sets never wait on each other
-  for (const auto& d : dirs) locks.push_back(std::make_unique<DirectoryLock>(d));
+  // DIR/.flapstab.lock of each directory, in sorted order: two sets never wait on each other.
+  std::vector<std::unique_ptr<FileLock>> locks;
+  for (const auto& d : dirs)
+    locks.push_back(std::make_unique<FileLock>((fs::path(d.empty() ? "." : d) / ".flapstab.lock").string(),
+                                               FileLock::Mode::wait));
   std::vector<std::string> written;
   try {
     for (const auto& [path, content] : files) {

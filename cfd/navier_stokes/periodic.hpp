@@ -28,8 +28,8 @@ struct CycleRecord {
   Wrench mean;         // cycle mean of the total wrench (N, N m; about O, stability axes)
   double change = -1;  // relative change from the previous cycle (-1 for the first)
   // Perturbed runs (cfd_model.hpp): the change that the least-squares trend of the per-wingbeat mean difference makes
-  // across the averaging window, the largest over the components, as a fraction of the weight (moments: of weight x
-  // mean chord); -1 where not computed. A window whose mean has a small standard error can still drift.
+  // across the averaging window (window_statistics below: the larger of the force and moment vectors' changes) as a
+  // fraction of the weight (moments: of weight x mean chord); -1 where not computed. A window whose mean has a small standard error can still drift.
   double drift = -1;
 };
 
