@@ -103,6 +103,45 @@ std::string fmt_c(std::complex<double> z) {
 
 }  // namespace
 
+std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs,
+                                               const std::vector<int>& columns) {
+  std::vector<MechanismSplit> out;
+  const auto& ref = d.table.reference;
+  for (int j : columns) {
+    if (j >= 3) continue;  // rate columns: the grid turns, the partition does not hold
+    const double h = d.velocity_step;
+    const ns::PartitionMeans *plus = nullptr, *minus = nullptr;
+    for (const auto& r : runs) {  // the column's two runs, as the table paired them
+      if (r.other_kinematics || !r.partition || r.motion.rate.squaredNorm() != 0) continue;
+      Vec3 e = Vec3::Zero();
+      e(j) = h;
+      if ((r.motion.velocity - e).norm() <= 1e-12 * h) plus = &*r.partition;
+      if ((r.motion.velocity + e).norm() <= 1e-12 * h) minus = &*r.partition;
+    }
+    if (!plus || !minus || plus->components != minus->components) continue;
+    for (std::size_t k = 0; k < plus->components.size(); ++k) {
+      const int i = plus->components[k];
+      // per unit of the column variable (N or N m per m/s), then non-dimensional as the table
+      const double scale = ref.U / (i < 3 ? ref.force_scale() : ref.moment_scale()) / (2 * h);
+      auto nd = [&](int t) { return (plus->values[k][std::size_t(t)] - minus->values[k][std::size_t(t)]) * scale; };
+      MechanismSplit m;
+      m.row = i;
+      m.column = j;
+      m.total = d.table.nd(i, j);
+      m.pressure = nd(ns::PartitionMeans::pressure);
+      m.kinematic = nd(ns::PartitionMeans::kinematic);
+      m.centripetal = nd(ns::PartitionMeans::centripetal);
+      m.vortex = nd(ns::PartitionMeans::vortex);
+      m.viscous = nd(ns::PartitionMeans::viscous);
+      m.outer = nd(ns::PartitionMeans::outer);
+      m.run_pressure = nd(ns::PartitionMeans::run_pressure);
+      m.friction = nd(ns::PartitionMeans::run_friction);
+      out.push_back(m);
+    }
+  }
+  return out;
+}
+
 std::optional<std::string> rate_step_warning(const Case& c, double rate_step, double frequency_hz) {
   // A steady rate turns the body (and the grid fixed to it) through the air: over the several wingbeats of a run
   // a large turn is no longer a small perturbation of the hover.
@@ -178,6 +217,12 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         ns::fmt_seconds(typical * per_cycle), most, ns::fmt_seconds(most * per_cycle),
         cache.empty() ? std::string("memory only") : cache)
          << std::flush;
+  if (log && cs.fpm.enabled)
+    *log << fmt::format(
+        "cfd study: [aero.cfd.fpm]: the continued hover and the velocity runs are force-partitioned ({} samples per "
+        "wingbeat) to split the velocity derivatives by mechanism; this raises their cost by a factor the estimate "
+        "above leaves out (`flapstab cfd {} --dry-run` prints it; 1.3-1.4 on the hawkmoth example)\n",
+        cs.fpm.samples_per_cycle, c.path);
 
   // 3. CFD trim from the quasi-steady one.
   ns::CfdModel cfd(c, log, cache);
@@ -235,6 +280,7 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   s.qs = cycle_averaged_derivatives(*qs_model, c.insect, s.trim.kinematics, c.fluid, c.derivatives.relative_step, {},
                                     columns, c.derivatives.relative_rate_step);
   standard_errors(s.derivatives, cfd.records(), columns, c.insect.weight(), c.insect.wing.mean_chord);
+  s.by_mechanism = split_by_mechanism(s.derivatives, cfd.records(), columns);
   for (const auto& r : cfd.records()) {
     if (!r.converged)
       s.notices.push_back(fmt::format("CFD run '{}' did not converge in {} wingbeats (last change {:.3g})", r.label,
@@ -287,6 +333,11 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
   for (const auto& k : s.reference)
     ref.push_back({{"cycle", k.cycle}, {"mean_force_N", {k.mean.force.x(), k.mean.force.y(), k.mean.force.z()}},
                    {"mean_moment_N_m", {k.mean.moment.x(), k.mean.moment.y(), k.mean.moment.z()}}});
+  json by_mechanism = json::array();
+  for (const auto& m : s.by_mechanism)
+    by_mechanism.push_back({{"derivative", derivative_name(m.row, m.column)}, {"total", m.total},
+                            {"run_pressure", m.run_pressure}, {"run_friction", m.friction}, {"pressure", m.pressure}, {"added_mass", m.added_mass()}, {"centripetal", m.centripetal},
+                            {"vortex", m.vortex}, {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()}});
   json stages = json::array();
   for (const auto& st : s.stages) stages.push_back({{"stage", st.name}, {"wall_s", st.seconds}, {"cfd_runs", st.runs}});
   auto floq = [](const std::optional<FloquetAnalysis>& f) -> json {
@@ -307,6 +358,7 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
           {"continued_hover", ref},
           {"stages", stages},
           {"phase_resolved", {{"phases", s.phase.samples.size()}, {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}}},
+          {"derivatives_by_mechanism", by_mechanism},
           {"floquet_longitudinal", floq(s.floquet_longitudinal)},
           {"floquet_lateral", floq(s.floquet_lateral)},
           {"notices", s.notices},
@@ -360,6 +412,21 @@ std::string cfd_study_markdown(const CfdStudy& s) {
                      "{}; M_q < 0: {}.\n",
                      n(0, 0) < 0 ? "yes" : "**no**", n(4, 0) > 0 ? "yes" : "**no**", n(2, 2) < 0 ? "yes" : "**no**",
                      n(4, 4) < 0 ? "yes" : "**no**");
+  if (!s.by_mechanism.empty()) {
+    m += "\nVelocity derivatives split by mechanism (force partitioning of the same runs; non-dimensional as the table): "
+         "the table's value (the run's loads at every step), the run's pressure and skin-friction parts at the "
+         "partition's samples, the cut-cell pressure load the parts should sum to, its parts, their sum and the closure "
+         "gap (sum minus cut-cell pressure). The rate columns are not split: their grid turns with the body, where the "
+         "partition does not hold. Kinematic parts of velocity derivatives vanish in theory (the parts move in the "
+         "body's frame as in the hover).\n\n"
+         "| derivative | table | run's pressure | skin friction | cut-cell pressure | added mass | CAR | vortex-induced "
+         "| viscous | outer | sum | closure gap |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const auto& b : s.by_mechanism)
+      m += fmt::format("| {} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | "
+                       "{:+.4f} | {:+.4f} |\n",
+                       derivative_name(b.row, b.column), b.total, b.run_pressure, b.friction, b.pressure, b.added_mass(),
+                       b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure);
+  }
   for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral}) {
     if (!*f) continue;
     m += fmt::format("\nFloquet multipliers of the CFD A(t), {} [{}]:", (*f)->name, fmt::join((*f)->state_order, ", "));

@@ -16,6 +16,22 @@
 
 namespace flapstab {
 
+// One CFD velocity derivative split by mechanism ([aero.cfd.fpm]): the central differences of the partition's window
+// means between the column's two runs, non-dimensional like the table. total: the table's value (the run's loads,
+// pressure and skin friction, every step); pressure: the cut-cell pressure load the parts should sum to; run_pressure,
+// friction: the run's own pressure and skin-friction loads at the partition's samples.
+struct MechanismSplit {
+  int row = 0, column = 0;  // 0 .. 5: X Y Z L M N; u v w
+  double total = 0, pressure = 0, kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0;
+  double run_pressure = 0, friction = 0;
+  double added_mass() const { return kinematic - centripetal; }
+  double sum() const { return kinematic + vortex + viscous + outer; }
+};
+// The split of every velocity column of `columns` whose two runs were partitioned, for the load components they
+// were partitioned in (rate columns: none, their grid turns).
+std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs,
+                                               const std::vector<int>& columns);
+
 struct CfdStudy {
   TrimResult qs_trim;            // quasi-steady trim of the case's [trim] parameters: the starting point
   DerivativeResult qs_at_start;  // quasi-steady derivatives at the quasi-steady trim (resolution check)
@@ -23,6 +39,7 @@ struct CfdStudy {
   DerivativeResult qs;           // quasi-steady derivatives at the CFD trim's kinematics (the comparison)
   DerivativeResult derivatives;  // CFD cycle-averaged derivatives at the CFD trim
   PhaseDerivatives phase;        // CFD phase-resolved derivatives, from the same runs
+  std::vector<MechanismSplit> by_mechanism;  // with [aero.cfd.fpm]: the velocity derivatives split by mechanism
   std::optional<FloquetAnalysis> floquet_longitudinal, floquet_lateral;
   WrenchHistory history;         // CFD loads over the trimmed wingbeat
   std::vector<ns::CfdRunRecord> runs;

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cfd/fpm/observer.hpp"
 #include "cfd/navier_stokes/run.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
@@ -162,6 +163,75 @@ std::vector<CycleRecord> cycles_from(const nlohmann::json& a) {
   return out;
 }
 
+// The partition's means over the samples with from_s < t <= to_s (half a step of slack at both ends: the samples
+// are taken at step ends), summed over the partitioned parts; the load components only (not "power").
+PartitionMeans partition_means(const fpm::FpmObserver& obs, double from_s, double to_s, double dt) {
+  PartitionMeans m;
+  for (int k : obs.components())
+    if (k < fpm::power_component) m.components.push_back(k);
+  m.values.assign(m.components.size(), {});
+  std::vector<double> times;
+  for (const auto& r : obs.rows()) {
+    if (!(r.time > from_s + 0.5 * dt && r.time <= to_s + 0.5 * dt)) continue;
+    const auto it = std::find(m.components.begin(), m.components.end(), r.component);
+    if (it == m.components.end()) continue;
+    auto& v = m.values[std::size_t(it - m.components.begin())];
+    v[PartitionMeans::pressure] += r.pressure;
+    v[PartitionMeans::kinematic] += r.kinematic;
+    v[PartitionMeans::centripetal] += r.centripetal;
+    v[PartitionMeans::vortex] += r.vortex;
+    v[PartitionMeans::viscous] += r.viscous;
+    v[PartitionMeans::outer] += r.outer;
+    v[PartitionMeans::run_pressure] += r.solver_pressure;
+    v[PartitionMeans::run_friction] += r.solver_viscous;
+    if (std::find(times.begin(), times.end(), r.time) == times.end()) times.push_back(r.time);
+  }
+  if (times.empty()) throw SolveError("cfd model: a wingbeat without force-partition samples");
+  for (auto& v : m.values)
+    for (double& x : v) x /= double(times.size());
+  return m;
+}
+
+// a + sign b, term by term (the same components).
+PartitionMeans combine(const PartitionMeans& a, const PartitionMeans& b, double sign) {
+  if (a.components != b.components) throw SolveError("cfd model: force partitions of different components");
+  PartitionMeans r = a;
+  for (std::size_t i = 0; i < r.values.size(); ++i)
+    for (int t = 0; t < PartitionMeans::terms; ++t) r.values[i][std::size_t(t)] += sign * b.values[i][std::size_t(t)];
+  return r;
+}
+
+nlohmann::json partition_json(const PartitionMeans& m) {
+  nlohmann::json names = nlohmann::json::array();
+  for (int t = 0; t < PartitionMeans::terms; ++t) names.push_back(PartitionMeans::term_name(t));
+  return {{"components", m.components}, {"terms", names}, {"values", m.values}};
+}
+
+PartitionMeans partition_from(const nlohmann::json& j) {
+  PartitionMeans m;
+  m.components = j.at("components").get<std::vector<int>>();
+  m.values = j.at("values").get<std::vector<std::array<double, PartitionMeans::terms>>>();
+  if (m.values.size() != m.components.size()) throw SolveError("cfd model: a damaged force partition in the run cache");
+  return m;
+}
+
+// Per wingbeat (null where a wingbeat was not partitioned).
+nlohmann::json partitions_json(const std::vector<std::optional<PartitionMeans>>& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& m : v) a.push_back(m ? partition_json(*m) : nlohmann::json());
+  return a;
+}
+
+// `count` wingbeats from the "partition" array of a cache file (absent, short or null entries: not partitioned).
+std::vector<std::optional<PartitionMeans>> partitions_from(const nlohmann::json& j, std::size_t count) {
+  std::vector<std::optional<PartitionMeans>> v(count);
+  if (!j.contains("partition")) return v;
+  const auto& a = j.at("partition");
+  for (std::size_t i = 0; i < count && i < a.size(); ++i)
+    if (!a[i].is_null()) v[i] = partition_from(a[i]);
+  return v;
+}
+
 // Locks `path` (a campaign's claim on the hover, a run or the continued hover), waiting while another process holds it
 // and saying so.
 template <class Say>
@@ -187,6 +257,12 @@ std::optional<nlohmann::json> read_json(const std::string& path, const std::stri
 
 }  // namespace
 
+const char* PartitionMeans::term_name(int t) {
+  static const char* names[terms] = {"pressure", "kinematic",    "centripetal", "vortex",
+                                     "viscous",  "outer",        "run_pressure", "run_friction"};
+  return t >= 0 && t < terms ? names[t] : "?";
+}
+
 struct CfdModel::State {
   std::string key;  // the case file, the base insect and kinematics
   Case base_case;
@@ -200,6 +276,8 @@ struct CfdModel::State {
   bool ref_on_file = false;  // the reference's cycles came from the cache: its state is read from there when needed
   std::vector<CycleRecord> ref_cycles;
   std::vector<std::vector<CfdLoadRow>> ref_rows;
+  std::unique_ptr<fpm::FpmObserver> ref_fpm;       // with [aero.cfd.fpm]: partitions the continued hover
+  std::vector<std::optional<PartitionMeans>> ref_partition;  // its wingbeat means, beside ref_cycles
   std::vector<CfdRunRecord> records;
   std::map<std::string, std::vector<CfdLoadRow>> answers;  // differences d of the runs made, by run key
   int runs = 0;
@@ -307,6 +385,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       if (const auto r = read_json(file("reference.json"), st->key)) {
         st->ref_cycles = cycles_from(r->at("cycles"));
         for (const auto& c : r->at("rows")) st->ref_rows.push_back(rows_from(c));
+        st->ref_partition = partitions_from(*r, st->ref_cycles.size());
         st->ref_on_file = true;
       }
     }
@@ -360,6 +439,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     rec.wall_seconds = cached->at("wall_s").get<double>();
     rec.reused = true;
     diff = rows_from(cached->at("difference"));
+    if (cached->contains("partition") && !cached->at("partition").is_null())
+      rec.partition = partition_from(cached->at("partition"));
     say(fmt::format("cfd model: run {} ({}) reused from {}\n", number, label, run_file));
   } else {
     Case c = case_;
@@ -394,6 +475,11 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     plan.dt = plan.period / plan.steps_per_cycle;
     Simulation sim(c, kin, motion, plan);
     std::vector<std::vector<CfdLoadRow>> history;  // d at every phase, per wingbeat
+    // With [aero.cfd.fpm] and no body rates (an inertial grid frame): the run's partition, per wingbeat.
+    const bool partitioned = s.fpm.enabled && motion.rate.squaredNorm() == 0;
+    std::unique_ptr<fpm::FpmObserver> obs;
+    if (partitioned) obs = std::make_unique<fpm::FpmObserver>(sim, s.fpm, std::string());
+    std::vector<std::optional<PartitionMeans>> phist;
     // A run interrupted (killed, or diverged) resumes from its last whole wingbeat: its state and its history so far
     // are kept after every wingbeat beside the run's file, and removed when the run ends.
     const std::string partial_json = file("run_" + run_key + ".partial.json"), partial_h5 = file("run_" + run_key + ".partial.h5");
@@ -405,6 +491,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       if (saved.step == part->at("step").get<long>()) {
         sim.restore(saved);
         for (const auto& h : part->at("history")) history.push_back(rows_from(h));
+        phist = partitions_from(*part, history.size());
         rec.cycles = cycles_from(part->at("cycles"));
         earlier_seconds = part->at("wall_s").get<double>();
         resumed = true;
@@ -417,8 +504,13 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     if (!resumed) sim.restore(st.hover_state, BodyMotion{});
     for (int k = int(history.size()) + 1; k <= st.perturbed_settings.max_cycles; ++k) {
       std::vector<CfdLoadRow> rows;
+      const double from = sim.time();
       try {
-        for (int i = 0; i < n; ++i) rows.push_back(sim.advance().row);
+        for (int i = 0; i < n; ++i) {
+          const StepReport r = sim.advance();
+          rows.push_back(r.row);
+          if (obs) obs->on_step(sim, r);
+        }
       } catch (const StepFailure& e) {
         throw SolveError(fmt::format("cfd model: run {} ({}) diverged in its wingbeat {} (step {}): {}; lower the time "
                                      "step (aero.cfd.steps_per_cycle) or the perturbation{}", number, label, k, e.step(),
@@ -436,7 +528,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
           st.ref_cycles = cycles_from(r->at("cycles"));
           st.ref_rows.clear();
           for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));
+          st.ref_partition = partitions_from(*r, st.ref_cycles.size());
           st.ref_sim.reset();
+          st.ref_fpm.reset();
           st.ref_on_file = true;
         }
       }
@@ -457,12 +551,24 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                             file("reference.h5"), st.ref_cycles.size()));
             st.ref_cycles.clear();
             st.ref_rows.clear();
+            st.ref_partition.clear();
           }
           st.ref_on_file = false;
           st.ref_sim->restore(end ? *end : st.hover_state);
+          if (s.fpm.enabled) st.ref_fpm = std::make_unique<fpm::FpmObserver>(*st.ref_sim, s.fpm, std::string());
         }
         std::vector<CfdLoadRow> rr;
-        for (int i = 0; i < n; ++i) rr.push_back(st.ref_sim->advance().row);
+        const double ref_from = st.ref_sim->time();
+        for (int i = 0; i < n; ++i) {
+          const StepReport r = st.ref_sim->advance();
+          rr.push_back(r.row);
+          if (st.ref_fpm) st.ref_fpm->on_step(*st.ref_sim, r);
+        }
+        st.ref_partition.resize(st.ref_cycles.size());
+        if (st.ref_fpm)
+          st.ref_partition.push_back(partition_means(*st.ref_fpm, ref_from, st.ref_sim->time(), st.plan.dt));
+        else
+          st.ref_partition.emplace_back();
         CycleRecord cr;
         cr.cycle = int(st.ref_cycles.size()) + 1;
         cr.mean = mean_of(rr);
@@ -476,9 +582,13 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
           nlohmann::json rows = nlohmann::json::array();
           for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
           write_file_atomic(file("reference.json"),
-                            nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows}}.dump(1) + "\n");
+                            nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows},
+                                           {"partition", partitions_json(st.ref_partition)}}.dump(1) + "\n");
         }
       }
+      phist.resize(std::size_t(k - 1));
+      if (obs) phist.push_back(partition_means(*obs, from, sim.time(), plan.dt));
+      else phist.emplace_back();
       const auto& ref = st.ref_rows[std::size_t(k - 1)];
       std::vector<CfdLoadRow> dk;
       for (int i = 0; i < n; ++i) dk.push_back(combine(rows[std::size_t(i)], ref[std::size_t(i)], -1));
@@ -500,6 +610,18 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       for (int j = first; j <= k; ++j)
         for (int i = 0; i < n; ++i) diff[std::size_t(i)] = combine(diff[std::size_t(i)], history[std::size_t(j - 1)][std::size_t(i)], 1.0 / count);
       for (int i = 0; i < n; ++i) diff[std::size_t(i)].time = rows[std::size_t(i)].time, diff[std::size_t(i)].step = rows[std::size_t(i)].step;
+      // The partition's difference over the same window, where this run and the continued hover were partitioned.
+      rec.partition.reset();
+      bool whole = partitioned;
+      for (int j = first; j <= k && whole; ++j)
+        whole = phist[std::size_t(j - 1)] && std::size_t(j) <= st.ref_partition.size() && st.ref_partition[std::size_t(j - 1)];
+      if (whole) {
+        PartitionMeans w = combine(*phist[std::size_t(first - 1)], *st.ref_partition[std::size_t(first - 1)], -1);
+        for (auto& v : w.values) v.fill(0);
+        for (int j = first; j <= k; ++j)
+          w = combine(w, combine(*phist[std::size_t(j - 1)], *st.ref_partition[std::size_t(j - 1)], -1), 1.0 / count);
+        rec.partition = w;
+      }
       rec.cycles.push_back(cr);
       say(fmt::format("  wingbeat {:>2}: difference from the hover dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, dM = ({:+.4e}, "
                       "{:+.4e}, {:+.4e}) N m; mean of wingbeats {}-{}: dF = ({:+.4e}, {:+.4e}, {:+.4e}) N, standard "
@@ -518,7 +640,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         nlohmann::json hj = nlohmann::json::array();
         for (const auto& h : history) hj.push_back(rows_json(h));
         write_file_atomic(partial_json, nlohmann::json{{"key", run_key}, {"cycles", cycles_json(rec.cycles)},
-                                                       {"history", hj}, {"step", sim.step()},
+                                                       {"history", hj}, {"partition", partitions_json(phist)},
+                                                       {"step", sim.step()},
                                                        {"wall_s", earlier_seconds + std::chrono::duration<double>(
                                                                                         clock_type::now() - t0).count()}}
                                                 .dump(1) + "\n");
@@ -533,7 +656,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     if (!cache_.empty()) {
       fs::create_directories(cache_);
       nlohmann::json j = {{"key", run_key}, {"label", label}, {"cycles", cycles_json(rec.cycles)},
-                          {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)}};
+                          {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)},
+                          {"partition", rec.partition ? partition_json(*rec.partition) : nlohmann::json()}};
       write_file_atomic(run_file, j.dump(1) + "\n");
       std::error_code ec;
       fs::remove(partial_json, ec);

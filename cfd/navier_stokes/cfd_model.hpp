@@ -13,12 +13,17 @@
 //    hover's last wingbeat plus the window's mean d at every phase. The hover's own drift is common to both and
 //    cancels in d; the wingbeat-to-wingbeat scatter that does not (coarse grids at Re ~ 1000 are close to
 //    chaotic) is averaged down and reported as the standard error.
+// With [aero.cfd.fpm] the continued hover and every run without body rates are force-partitioned as well, and each
+// run keeps the window mean of its partition's difference from the continued hover (CfdRunRecord::partition): the
+// split of the velocity derivatives by mechanism. Runs with rates turn the grid, where the partition does not hold.
 // Tolerances: fractions of the weight (forces) and of weight x mean chord (moments). Each run reports its cycles,
 // final change and wall time (records()); with a cache directory every finished run and the kept states are saved
 // there and reused when the same case is run again (a killed analysis resumes without recomputing).
 #pragma once
+#include <array>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 #include "cfd/navier_stokes/periodic.hpp"
@@ -27,6 +32,19 @@
 #include "core/case_file.hpp"
 
 namespace flapstab::ns {
+
+// Means of the force partition ([aero.cfd.fpm], docs/theory/force-partitioning.md) of a run, summed over the
+// partitioned parts: per partitioned load component (0 .. 5: Fx Fy Fz Mx My Mz in stability axes, moments about O;
+// N, N m), the cut-cell pressure load the parts should sum to, the parts, and at the same samples the run's own
+// pressure and skin-friction loads (its forces.csv).
+struct PartitionMeans {
+  // centripetal: the CAR, part of kinematic
+  enum Term { pressure, kinematic, centripetal, vortex, viscous, outer, run_pressure, run_friction, terms };
+  static const char* term_name(int t);
+  std::vector<int> components;
+  std::vector<std::array<double, terms>> values;  // one row per component
+  double sum(std::size_t row) const { return values[row][kinematic] + values[row][vortex] + values[row][viscous] + values[row][outer]; }
+};
 
 struct CfdRunRecord {
   std::string label;              // "hover", or the motion / kinematics change
@@ -38,6 +56,9 @@ struct CfdRunRecord {
   bool converged = false;
   double wall_seconds = 0;
   bool reused = false;            // read from the cache directory
+  // With [aero.cfd.fpm], for a run without body rates (the partition needs an inertial grid frame): the window mean
+  // of the partition's difference from the continued hover, like the loads' (the derivatives' split by mechanism).
+  std::optional<PartitionMeans> partition;
   double final_change() const { return cycles.empty() ? -1 : cycles.back().change; }
   double final_drift() const { return cycles.empty() ? -1 : cycles.back().drift; }
 };

@@ -524,6 +524,47 @@ TEST(CfdCli, HelpDescribesTheOptions) {
 
 // The CFD stability chain refuses, before any CFD run, a derivative step whose load changes (predicted by the
 // quasi-steady model) the periodic convergence cannot resolve: exit 2, the key and the numbers, nothing written.
+// With [aero.cfd.fpm] a CFD derivative table comes with its velocity columns split by mechanism (the force partition's
+// window-mean differences of the same runs): in derivatives.json and on the terminal, one row per partitioned load
+// and velocity column, the rate column left out (its grid turns). The table's own value is carried beside; the
+// kinematic part of a velocity derivative vanishes (the parts move in the body's frame as in the hover).
+TEST(CfdCli, DerivativesWithForcePartitioningAreSplitByMechanism) {
+  const std::string text = small_cfd_analysis() +
+                           "\n[aero.cfd.fpm]\nsamples_per_cycle = 20\ncomponents = [\"Fx\", \"Fz\", \"My\"]\n";
+  const std::string path = write_temp("cfdcli_split.toml", text);
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_split_dir";
+  fs::remove_all(dir);
+  const std::string outfile = write_temp("cfd_split_stdout.txt", ""), errfile = write_temp("cfd_split_stderr.txt", "");
+  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() + " > " +
+                              outfile + " 2> " + errfile).c_str());
+  auto slurp = [](const std::string& f) {
+    std::ifstream in(f);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  const std::string out = slurp(outfile);
+  ASSERT_EQ(WEXITSTATUS(rc), 0) << slurp(errfile);
+  const nlohmann::json j = nlohmann::json::parse(slurp((dir / "derivatives.json").string()));
+  const auto& split = j.at("cfd").at("derivatives_by_mechanism");
+  std::vector<std::string> names;
+  for (const auto& m : split) {
+    const std::string name = m.at("derivative").get<std::string>();
+    names.push_back(name);
+    const double pressure = m.at("pressure").get<double>();
+    const double kinematic = m.at("added_mass").get<double>() + m.at("centripetal").get<double>();
+    EXPECT_LE(std::abs(kinematic), 1e-3 * std::abs(pressure)) << name;
+    EXPECT_NEAR(m.at("sum").get<double>(), kinematic + m.at("vortex").get<double>() + m.at("viscous").get<double>() +
+                                               m.at("outer").get<double>(), 1e-12) << name;
+    EXPECT_EQ(m.at("total").get<double>(), j.at("derivatives").at("nondimensional").at(name).get<double>()) << name;
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"Xu", "Zu", "Mu", "Xw", "Zw", "Mw"}));
+  const std::size_t at = out.find("Velocity derivatives split by mechanism");
+  ASSERT_NE(at, std::string::npos) << out;
+  EXPECT_NE(out.find("| Mu |", at), std::string::npos) << out;
+  EXPECT_EQ(out.find("| Mq |", at), std::string::npos) << "the rate column is not split: " << out;
+}
+
 TEST(CfdCli, DerivativeStepTooSmallForTheCfdRunsIsBadInput) {
   std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 60\nperturbation_tolerance = 0.005\n");
   text += "\n[derivatives]\nrelative_step = 0.001\n";

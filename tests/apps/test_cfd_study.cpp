@@ -35,5 +35,52 @@ TEST(CfdStudyPlan, WarnsWhenTheRateStepTurnsTheBodyMoreThanFiveDegreesPerWingbea
   EXPECT_FALSE(rate_step_warning(c, 5.0 * 3.14159265358979323846 / 180 * 218.0 * 0.999, 218.0).has_value());
 }
 
+// The split of the velocity derivatives by mechanism pairs each column's two runs as the table does and scales the
+// partition's central differences like the table: with a reference speed U, force scale F and moment scale F c, a
+// partition difference of dP N between the +h and -h runs is dP / (2 h) N per m/s, dP U / (2 h F) non-dimensional.
+// Rate runs carry no partition, runs of other kinematics are not paired, and a column with one run missing is left out.
+TEST(CfdStudySplit, PairsTheColumnsRunsAndScalesLikeTheTable) {
+  DerivativeResult d;
+  d.velocity_step = 0.1;
+  d.rate_step = 2.0;
+  auto& ref = d.table.reference;
+  ref.rho = 1.2;
+  ref.U = 2.0;
+  ref.S_t = 0.5;
+  ref.c = 0.25;  // force scale 0.5 rho U^2 S_t = 1.2 N, moment scale 0.3 N m
+  d.table.nd(0, 0) = -0.7;
+  auto run = [](double u, double w, double q, double x_pressure, double x_vortex, double m_kinematic) {
+    ns::CfdRunRecord r;
+    r.motion.velocity = Vec3(u, 0, w);
+    r.motion.rate = Vec3(0, q, 0);
+    r.cycles.resize(3);
+    ns::PartitionMeans p;
+    p.components = {0, 4};  // Fx, My
+    p.values.assign(2, {});
+    p.values[0][ns::PartitionMeans::pressure] = x_pressure;
+    p.values[0][ns::PartitionMeans::vortex] = x_vortex;
+    p.values[1][ns::PartitionMeans::kinematic] = m_kinematic;
+    p.values[1][ns::PartitionMeans::centripetal] = 0.25 * m_kinematic;
+    if (q == 0) r.partition = p;
+    return r;
+  };
+  std::vector<ns::CfdRunRecord> runs = {run(0.1, 0, 0, -0.30, -0.20, 0.06), run(-0.1, 0, 0, 0.18, 0.10, 0.02),
+                                        run(0, 0, 2.0, 9, 9, 9), run(0, 0, -2.0, 9, 9, 9), run(0, 0.1, 0, 1, 1, 1)};
+  ns::CfdRunRecord other = run(-0.1, 0, 0, 5, 5, 5);
+  other.other_kinematics = true;  // a trim iterate's run at the same speed: not the column's
+  runs.push_back(other);
+  const std::vector<MechanismSplit> s = split_by_mechanism(d, runs, {0, 2, 4});
+  ASSERT_EQ(s.size(), 2u);  // X_u and M_u; the w column lacks its -w run, the q column is not split
+  EXPECT_EQ(s[0].row, 0);
+  EXPECT_EQ(s[0].column, 0);
+  EXPECT_EQ(s[0].total, -0.7);
+  EXPECT_NEAR(s[0].pressure, (-0.30 - 0.18) / 0.2 * 2.0 / 1.2, 1e-12);  // -4.0
+  EXPECT_NEAR(s[0].vortex, (-0.20 - 0.10) / 0.2 * 2.0 / 1.2, 1e-12);    // -2.5
+  EXPECT_NEAR(s[0].sum(), s[0].vortex, 1e-12);
+  EXPECT_EQ(s[1].row, 4);
+  EXPECT_NEAR(s[1].kinematic, (0.06 - 0.02) / 0.2 * 2.0 / 0.3, 1e-12);
+  EXPECT_NEAR(s[1].added_mass(), 0.75 * s[1].kinematic, 1e-12);
+}
+
 }  // namespace
 }  // namespace flapstab

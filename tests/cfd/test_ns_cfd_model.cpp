@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -32,6 +33,8 @@ Case model_case(const std::string& name, const std::string& extra) {
   std::string text = testing::replace(testing::valid_cfd_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
   text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
                           "sin_deg = [-10.0]");
+  if (extra.find("[aero.cfd.fpm]") != std::string::npos)  // the case file accepts the table with the CFD model only
+    text = testing::replace(text, "model = \"quasi-steady\"", "model = \"cfd\"");
   return load_case(testing::write_temp(name, text));
 }
 
@@ -118,6 +121,52 @@ TEST(CfdModel, PerturbedRunsStartFromTheKeptHoverState) {
   std::size_t longest = 0;
   for (const auto& r : model.records()) if (r.label != "hover") longest = std::max(longest, r.cycles.size());
   EXPECT_EQ(model.reference_cycles().size(), longest);
+}
+
+// With [aero.cfd.fpm] the continued hover and every run without body rates are force-partitioned, and each run keeps
+// its partition's window-mean difference from the continued hover. In a velocity run the parts move in the body's
+// frame exactly as in the hover, so the kinematic part (added mass and CAR) of the difference vanishes in theory
+// (its potentials and accelerations are those of the hover at the same phases): what remains is the potentials'
+// solver tolerance (1e-4 here). A pitch-rate run turns the grid and carries no partition; the cache keeps the
+// partition bit for bit.
+TEST(CfdModel, VelocityRunsSplitTheirDifferenceByMechanism) {
+  const Case c = model_case("model_fpm.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n"
+                                              "perturbation_tolerance = 0.5\n\n[aero.cfd.fpm]\nsamples_per_cycle = 10\n"
+                                              "components = [\"Fx\", \"Fz\", \"My\"]\n");
+  ASSERT_TRUE(c.aero.cfd.fpm.enabled);
+  const std::string dir = fresh_dir("fpm");
+  BodyMotion plus, q;
+  plus.velocity.x() = 0.05;  // m/s, about 2 % of the mean wingtip speed
+  q.rate.y() = 2.0;
+  std::optional<PartitionMeans> kept;
+  {
+    const CfdModel model(c, nullptr, dir);
+    model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+    model.run(c.insect, c.kinematics, plus, AeroRunOptions{});
+    ASSERT_TRUE(model.records().back().partition.has_value());
+    const PartitionMeans p = *model.records().back().partition;  // a copy: later runs grow the records
+    ASSERT_EQ(p.components, (std::vector<int>{0, 2, 4}));
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto& v = p.values[k];
+      std::printf("  d%s: pressure %+.4e, kinematic %+.4e (CAR %+.4e), vortex %+.4e, viscous %+.4e, outer %+.4e\n",
+                  k == 0 ? "X" : k == 1 ? "Z" : "M", v[PartitionMeans::pressure], v[PartitionMeans::kinematic],
+                  v[PartitionMeans::centripetal], v[PartitionMeans::vortex], v[PartitionMeans::viscous],
+                  v[PartitionMeans::outer]);
+      EXPECT_LT(std::abs(v[PartitionMeans::kinematic]), 1e-3 * std::abs(v[PartitionMeans::pressure])) << k;
+    }
+    // The forward speed's drag is the largest change: the cut-cell pressure's X difference opposes u.
+    EXPECT_LT(p.values[0][PartitionMeans::pressure], 0.0);
+    model.run(c.insect, c.kinematics, q, AeroRunOptions{});
+    EXPECT_FALSE(model.records().back().partition.has_value());
+    kept = p;
+  }
+  const CfdModel again(c, nullptr, dir);
+  again.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+  again.run(c.insect, c.kinematics, plus, AeroRunOptions{});
+  ASSERT_TRUE(again.records().back().reused);
+  ASSERT_TRUE(again.records().back().partition.has_value());
+  EXPECT_EQ(again.records().back().partition->values, kept->values);
+  fs::remove_all(fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())));
 }
 
 // Kinematics asked of the CFD model by an analysis (a trim iterate, a control derivative's run) are checked like
