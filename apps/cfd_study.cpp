@@ -281,6 +281,11 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
                                     columns, c.derivatives.relative_rate_step);
   standard_errors(s.derivatives, cfd.records(), columns, c.insect.weight(), c.insect.wing.mean_chord);
   s.by_mechanism = split_by_mechanism(s.derivatives, cfd.records(), columns);
+  if (c.aero.cfd.fpm.enabled && s.by_mechanism.empty())
+    s.notices.push_back(
+        "[aero.cfd.fpm]: no velocity derivative is split by mechanism: the table has no velocity column, or its runs "
+        "were not partitioned (a CFD trim moved the kinematics away from the kept hover's; runs of other kinematics "
+        "are not split)");
   for (const auto& r : cfd.records()) {
     if (!r.converged)
       s.notices.push_back(fmt::format("CFD run '{}' did not converge in {} wingbeats (last change {:.3g})", r.label,

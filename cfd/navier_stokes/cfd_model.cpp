@@ -475,8 +475,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     plan.dt = plan.period / plan.steps_per_cycle;
     Simulation sim(c, kin, motion, plan);
     std::vector<std::vector<CfdLoadRow>> history;  // d at every phase, per wingbeat
-    // With [aero.cfd.fpm] and no body rates (an inertial grid frame): the run's partition, per wingbeat.
-    const bool partitioned = s.fpm.enabled && motion.rate.squaredNorm() == 0;
+    // With [aero.cfd.fpm], no body rates (an inertial grid frame) and the base hover's kinematics (the derivative
+    // runs; a trim iterate's are not split): the run's partition, per wingbeat.
+    const bool partitioned = s.fpm.enabled && motion.rate.squaredNorm() == 0 && base_kin;
     std::unique_ptr<fpm::FpmObserver> obs;
     if (partitioned) obs = std::make_unique<fpm::FpmObserver>(sim, s.fpm, std::string());
     std::vector<std::optional<PartitionMeans>> phist;

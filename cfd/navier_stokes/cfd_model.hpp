@@ -13,9 +13,10 @@
 //    hover's last wingbeat plus the window's mean d at every phase. The hover's own drift is common to both and
 //    cancels in d; the wingbeat-to-wingbeat scatter that does not (coarse grids at Re ~ 1000 are close to
 //    chaotic) is averaged down and reported as the standard error.
-// With [aero.cfd.fpm] the continued hover and every run without body rates are force-partitioned as well, and each
-// run keeps the window mean of its partition's difference from the continued hover (CfdRunRecord::partition): the
-// split of the velocity derivatives by mechanism. Runs with rates turn the grid, where the partition does not hold.
+// With [aero.cfd.fpm] the continued hover and every run of the base hover's kinematics without body rates are
+// force-partitioned as well, and each keeps the window mean of its partition's difference from the continued hover
+// (CfdRunRecord::partition): the split of the velocity derivatives by mechanism. Runs with rates turn the grid, where
+// the partition does not hold; runs of other kinematics (a CFD trim's iterates) are not split.
 // Tolerances: fractions of the weight (forces) and of weight x mean chord (moments). Each run reports its cycles,
 // final change and wall time (records()); with a cache directory every finished run and the kept states are saved
 // there and reused when the same case is run again (a killed analysis resumes without recomputing).
