@@ -103,6 +103,19 @@ std::string fmt_c(std::complex<double> z) {
 
 }  // namespace
 
+void quasi_steady_start(const Case& c, const AeroModel& qs_model, TrimResult& trim, DerivativeResult& derivatives) {
+  Case qc = c;
+  qc.aero.model = "quasi-steady";
+  trim = trim_hover(qc, qs_model);
+  if (!trim.converged)
+    throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
+                                 trim.message));
+  const std::vector<int> columns = derivative_columns(c.derivatives.columns);
+  derivatives = cycle_averaged_derivatives(qs_model, c.insect, trim.kinematics, c.fluid, c.derivatives.relative_step,
+                                           {}, columns, c.derivatives.relative_rate_step);
+  check_resolution(c, derivatives, columns);
+}
+
 std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs,
                                                const std::vector<int>& columns) {
   std::vector<MechanismSplit> out;
@@ -166,15 +179,9 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   qc.aero.model = "quasi-steady";
   const auto qs_model = make_aero_model(qc);
   auto t = clock_type::now();
-  s.qs_trim = trim_hover(qc, *qs_model);
-  if (!s.qs_trim.converged)
-    throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
-                                 s.qs_trim.message));
   const std::vector<int> columns = derivative_columns(c.derivatives.columns);
   const int derivative_runs = 2 * int(columns.size());
-  s.qs_at_start = cycle_averaged_derivatives(*qs_model, c.insect, s.qs_trim.kinematics, c.fluid,
-                                             c.derivatives.relative_step, {}, columns, c.derivatives.relative_rate_step);
-  check_resolution(c, s.qs_at_start, columns);
+  quasi_steady_start(c, *qs_model, s.qs_trim, s.qs_at_start);
   stage("quasi-steady trim and derivatives", t, 0);
 
   // 2. The plan: grid, cost of a step, runs and wingbeats.

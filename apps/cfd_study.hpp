@@ -27,6 +27,12 @@ struct MechanismSplit {
   double added_mass() const { return kinematic - centripetal; }
   double sum() const { return kinematic + vortex + viscous + outer; }
 };
+// The study's first stage and its checks before any CFD run: the quasi-steady trim of the case's [trim] parameters
+// (`qs_model` is the case's quasi-steady model) and its derivatives, and the check that every derivative step moves
+// the loads by at least 10 x perturbation_tolerance (InputError naming derivatives.relative_step or
+// relative_rate_step, with the step that would do); SolveError when the trim does not converge.
+void quasi_steady_start(const Case& c, const AeroModel& qs_model, TrimResult& trim, DerivativeResult& derivatives);
+
 // The split of every velocity column of `columns` whose two runs were partitioned, for the load components they
 // were partitioned in (rate columns: none, their grid turns).
 std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs,
