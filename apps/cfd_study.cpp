@@ -62,22 +62,31 @@ void check_resolution(const Case& c, const DerivativeResult& qs, const std::vect
 // Upper bound of each derivative's standard error from the two runs of its column: a run's standard error of the
 // mean difference (CfdRunRecord::final_change, fractions of W for forces and W c for moments, all three components
 // together) bounds each component's; the central difference's is sqrt(s+^2 + s-^2) / (2 h).
+// Column j's two runs, at +h and -h of its variable (the base kinematics, no other motion), as the table paired
+// them; nullptr where one is missing.
+using RunPair = std::pair<const ns::CfdRunRecord*, const ns::CfdRunRecord*>;
+RunPair column_runs(const std::vector<ns::CfdRunRecord>& runs, int j, double h) {
+  const ns::CfdRunRecord *plus = nullptr, *minus = nullptr;
+  for (const auto& r : runs) {
+    if (r.other_kinematics || r.cycles.empty()) continue;
+    const Vec3& x = j < 3 ? r.motion.velocity : r.motion.rate;
+    const Vec3& y = j < 3 ? r.motion.rate : r.motion.velocity;
+    if (y.squaredNorm() != 0) continue;
+    Vec3 e = Vec3::Zero();
+    e(j % 3) = h;
+    if ((x - e).norm() <= 1e-12 * h) plus = &r;
+    if ((x + e).norm() <= 1e-12 * h) minus = &r;
+  }
+  return {plus, minus};
+}
+
 void standard_errors(DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs, const std::vector<int>& columns,
                      double weight, double chord) {
   const auto& ref = d.table.reference;
   for (int j : columns) {
     const double h = j < 3 ? d.velocity_step : d.rate_step;
-    double sp = -1, sm = -1;
-    for (const auto& r : runs) {
-      if (r.other_kinematics || r.cycles.empty()) continue;
-      const Vec3& x = j < 3 ? r.motion.velocity : r.motion.rate;
-      const Vec3& y = j < 3 ? r.motion.rate : r.motion.velocity;
-      if (y.squaredNorm() != 0) continue;
-      Vec3 e = Vec3::Zero();
-      e(j % 3) = h;
-      if ((x - e).norm() <= 1e-12 * h) sp = r.final_change();
-      if ((x + e).norm() <= 1e-12 * h) sm = r.final_change();
-    }
+    const auto [p, q] = column_runs(runs, j, h);
+    const double sp = p ? p->final_change() : -1, sm = q ? q->final_change() : -1;
     if (sp < 0 || sm < 0) continue;
     const double s = std::hypot(sp, sm) / (2 * h);  // per unit of the column variable, in units of the scale
     for (int i = 0; i < 6; ++i) {
@@ -123,15 +132,10 @@ std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const 
   for (int j : columns) {
     if (j >= 3) continue;  // rate columns: the grid turns, the partition does not hold
     const double h = d.velocity_step;
-    const ns::PartitionMeans *plus = nullptr, *minus = nullptr;
-    for (const auto& r : runs) {  // the column's two runs, as the table paired them
-      if (r.other_kinematics || !r.partition || r.motion.rate.squaredNorm() != 0) continue;
-      Vec3 e = Vec3::Zero();
-      e(j) = h;
-      if ((r.motion.velocity - e).norm() <= 1e-12 * h) plus = &*r.partition;
-      if ((r.motion.velocity + e).norm() <= 1e-12 * h) minus = &*r.partition;
-    }
-    if (!plus || !minus || plus->components != minus->components) continue;
+    const auto [p, q] = column_runs(runs, j, h);
+    if (!p || !q || !p->partition || !q->partition) continue;
+    const ns::PartitionMeans *plus = &*p->partition, *minus = &*q->partition;
+    if (plus->components != minus->components) continue;
     for (std::size_t k = 0; k < plus->components.size(); ++k) {
       const int i = plus->components[k];
       // per unit of the column variable (N or N m per m/s), then non-dimensional as the table
@@ -348,8 +352,9 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
   json by_mechanism = json::array();
   for (const auto& m : s.by_mechanism)
     by_mechanism.push_back({{"derivative", derivative_name(m.row, m.column)}, {"total", m.total},
-                            {"run_pressure", m.run_pressure}, {"run_friction", m.friction}, {"pressure", m.pressure}, {"added_mass", m.added_mass()}, {"centripetal", m.centripetal},
-                            {"vortex", m.vortex}, {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()}});
+                            {"run_pressure", m.run_pressure}, {"run_friction", m.friction}, {"pressure", m.pressure},
+                            {"added_mass", m.added_mass()}, {"centripetal", m.centripetal}, {"vortex", m.vortex},
+                            {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()}});
   json stages = json::array();
   for (const auto& st : s.stages) stages.push_back({{"stage", st.name}, {"wall_s", st.seconds}, {"cfd_runs", st.runs}});
   auto floq = [](const std::optional<FloquetAnalysis>& f) -> json {
@@ -425,19 +430,20 @@ std::string cfd_study_markdown(const CfdStudy& s) {
                      n(0, 0) < 0 ? "yes" : "**no**", n(4, 0) > 0 ? "yes" : "**no**", n(2, 2) < 0 ? "yes" : "**no**",
                      n(4, 4) < 0 ? "yes" : "**no**");
   if (!s.by_mechanism.empty()) {
-    m += "\nVelocity derivatives split by mechanism (force partitioning of the same runs; non-dimensional as the table): "
-         "the table's value (the run's loads at every step), the run's pressure and skin-friction parts at the "
-         "partition's samples, the cut-cell pressure load the parts should sum to, its parts, their sum and the closure "
-         "gap (sum minus cut-cell pressure). The rate columns are not split: their grid turns with the body, where the "
-         "partition does not hold. Kinematic parts of velocity derivatives vanish in theory (the parts move in the "
-         "body's frame as in the hover).\n\n"
-         "| derivative | table | run's pressure | skin friction | cut-cell pressure | added mass | CAR | vortex-induced "
-         "| viscous | outer | sum | closure gap |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    m += "\nVelocity derivatives split by mechanism (force partitioning of the same runs; non-dimensional as the "
+         "table): the table's value (the run's loads at every step), the run's pressure and skin-friction parts at the "
+         "partition's samples, the cut-cell pressure load the parts should sum to, its parts, their sum and the "
+         "closure gap (sum minus cut-cell pressure). The rate columns are not split: their grid turns with the body, "
+         "where the partition does not hold. Kinematic parts of velocity derivatives vanish in theory (the parts move "
+         "in the body's frame as in the hover).\n\n"
+         "| derivative | table | run's pressure | skin friction | cut-cell pressure | added mass | CAR "
+         "| vortex-induced | viscous | outer | sum | closure gap |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& b : s.by_mechanism)
-      m += fmt::format("| {} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | "
-                       "{:+.4f} | {:+.4f} |\n",
-                       derivative_name(b.row, b.column), b.total, b.run_pressure, b.friction, b.pressure, b.added_mass(),
-                       b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure);
+      m += fmt::format("| {} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | "
+                       "{:+.4f} | {:+.4f} | {:+.4f} |\n",
+                       derivative_name(b.row, b.column), b.total, b.run_pressure, b.friction, b.pressure,
+                       b.added_mass(), b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure);
   }
   for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral}) {
     if (!*f) continue;

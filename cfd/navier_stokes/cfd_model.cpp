@@ -615,9 +615,10 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       rec.partition.reset();
       bool whole = partitioned;
       for (int j = first; j <= k && whole; ++j)
-        whole = phist[std::size_t(j - 1)] && std::size_t(j) <= st.ref_partition.size() && st.ref_partition[std::size_t(j - 1)];
+        whole = phist[std::size_t(j - 1)] && std::size_t(j) <= st.ref_partition.size() &&
+                st.ref_partition[std::size_t(j - 1)];
       if (whole) {
-        PartitionMeans w = combine(*phist[std::size_t(first - 1)], *st.ref_partition[std::size_t(first - 1)], -1);
+        PartitionMeans w = *phist[std::size_t(first - 1)];  // the components; the values summed below
         for (auto& v : w.values) v.fill(0);
         for (int j = first; j <= k; ++j)
           w = combine(w, combine(*phist[std::size_t(j - 1)], *st.ref_partition[std::size_t(j - 1)], -1), 1.0 / count);

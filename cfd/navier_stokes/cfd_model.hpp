@@ -44,7 +44,6 @@ struct PartitionMeans {
   static const char* term_name(int t);
   std::vector<int> components;
   std::vector<std::array<double, terms>> values;  // one row per component
-  double sum(std::size_t row) const { return values[row][kinematic] + values[row][vortex] + values[row][viscous] + values[row][outer]; }
 };
 
 struct CfdRunRecord {

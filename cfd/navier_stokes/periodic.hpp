@@ -29,7 +29,8 @@ struct CycleRecord {
   double change = -1;  // relative change from the previous cycle (-1 for the first)
   // Perturbed runs (cfd_model.hpp): the change that the least-squares trend of the per-wingbeat mean difference makes
   // across the averaging window (window_statistics below: the larger of the force and moment vectors' changes) as a
-  // fraction of the weight (moments: of weight x mean chord); -1 where not computed. A window whose mean has a small standard error can still drift.
+  // fraction of the weight (moments: of weight x mean chord); -1 where not computed. A window whose mean has a small
+  // standard error can still drift.
   double drift = -1;
 };
 
