@@ -190,6 +190,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   // With a perturbation from the hover, the reference is the unperturbed coupled flight from the same state (the
   // CFD analogue of the periodic orbit): flown first, then the perturbed flight; the deviation is their difference.
   const bool with_reference = from_hover && x0 != BodyStateVector::Zero();
+  // [flight] cfd_reference = "closed-loop": the reference flies under the controller too, and both flights' sensors
+  // see the deviation from the tethered hover (the body at rest at O), as the quasi-steady free flight's see the
+  // deviation from its periodic orbit; the deviation reported stays the perturbed flight minus the reference.
+  const bool closed_reference = with_reference && !controller.empty() && c.flight.cfd_reference == "closed-loop";
 
   // The tethered hover's cycle-mean residual: its last wingbeat's mean wrench with the weight (body at rest at O, so
   // body axes = grid axes; the wings' mean inertial loads vanish over a wingbeat and O is the mean centre of mass).
@@ -232,7 +236,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   auto fly = [&](const BodyStateVector& x_init, const std::string& name, long limit) {
     Flown f;
     CfdFlight fl(c, dyn, plan);
-    if (name == "flight" && !controller.empty()) fl.set_controller(controller, reference_state);
+    if (closed_reference)
+      fl.set_controller(controller, [](double) { return BodyStateVector::Zero().eval(); });
+    else if (name == "flight" && !controller.empty())
+      fl.set_controller(controller, reference_state);
     if (const auto* h = model->hover_record(); h && !h->cycles.empty()) {
       residual = h->cycles.back().mean;
       Vec3 centroid;
@@ -252,7 +259,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         fmt::print("  perturbation along the quasi-steady model's {} Floquet mode (|mu| = {:.4f} per wingbeat), "
                    "amplitude {}\n",
                    c.flight.mode, std::abs(mode_multiplier), c.flight.mode_amplitude);
-      if (!controller.empty())
+      if (closed_reference)
+        fmt::print("  controller: {}; both flights fly under it, and it senses the deviation from the tethered hover "
+                   "(body at rest at O) ([flight] cfd_reference = \"closed-loop\")\n",
+                   controller.description);
+      else if (!controller.empty())
         fmt::print("  controller: {}; it senses the deviation from the {} (the reference flight flies open loop)\n",
                    controller.description, with_reference ? "unperturbed flight" : "tethered hover (body at rest at O)");
       fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z "
@@ -280,8 +291,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                              m.moment.x(), m.moment.y(), m.moment.z());
     }
     const std::string key = fnv1a64_hex(fmt::format("{}|{}|{}|{}|{}|{}", case_key, c.flight.start, dof_set_name(dofs),
-                                                    name == "reference" ? std::string("reference")
-                                                                        : pert + controller_key(controller),
+                                                    name == "reference"
+                                                        ? std::string("reference") +
+                                                              (closed_reference ? controller_key(controller) : "")
+                                                        : pert + controller_key(controller) +
+                                                              (closed_reference ? ";senses the hover" : ""),
                                                     name, hover_id));
     const std::string ck_path = dir + "/" + name + "_checkpoint.h5", ck_rows = dir + "/" + name + "_checkpoint.csv";
     f.checkpoint = ck_path;
@@ -503,8 +517,13 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  {"controller", controller.empty() ? json(nullptr)
                                                    : json{{"description", controller.description},
                                                           {"update", c.control.update},
-                                                          {"senses", ref_flight ? "the deviation from the unperturbed flight"
-                                                                                : "the deviation from the tethered hover"}}}};
+                                                          {"senses", ref_flight && !closed_reference
+                                                                         ? "the deviation from the unperturbed flight"
+                                                                         : "the deviation from the tethered hover"},
+                                                          {"reference_flight", !ref_flight ? "none"
+                                                                               : closed_reference ? "closed loop"
+                                                                                                  : "open loop"}}},
+                 {"cfd_reference", c.flight.cfd_reference}};
   if (!c.flight.mode.empty()) {
     j["flight"]["mode"] = c.flight.mode;
     j["flight"]["mode_amplitude_nd"] = c.flight.mode_amplitude;
@@ -532,8 +551,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  {"resumed", resumed},
                  {"simulation_time_s", r.wall_time_s},
                  {"deviation_per_wingbeat_nd", growth.deviation},
-                 {"reference", ref_flight ? "the unperturbed coupled flight from the same hover state (reference_checkpoint.*)"
-                                          : "the tethered hover (body at rest at O)"},
+                 {"reference", !ref_flight ? "the tethered hover (body at rest at O)"
+                               : closed_reference
+                                   ? "the unperturbed coupled flight from the same hover state under the same "
+                                     "controller (reference_checkpoint.*)"
+                                   : "the unperturbed coupled flight from the same hover state "
+                                     "(reference_checkpoint.*)"},
                  {"deviation_note", "largest non-dimensional deviation from the reference within each wingbeat "
                                     "(velocities / U, rates c / U, angles rad) over the moving states"},
                  {"growth_per_wingbeat", std::isfinite(growth.per_wingbeat) ? json(growth.per_wingbeat) : json(nullptr)},

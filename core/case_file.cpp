@@ -770,6 +770,7 @@ Case load_case(const std::string& path) {
   if (f.rtol < 1e-14 || f.rtol > 1e-3) fl.fail("rtol", fmt::format("out of range: {}", f.rtol), "a tolerance in [1e-14, 1e-3]");
   f.start = fl.string("start", false, f.start, {"periodic-orbit", "rest"});
   f.cfd_residual = fl.string("cfd_residual", false, f.cfd_residual, {"cancel", "keep"});
+  f.cfd_reference = fl.string("cfd_reference", false, f.cfd_reference, {"open-loop", "closed-loop"});
   Section pert = fl.sub("perturbation", false);
   static const std::vector<std::pair<std::string, double>> pkeys = {
       {"x_m", 1}, {"y_m", 1}, {"z_m", 1}, {"u_m_s", 1}, {"v_m_s", 1}, {"w_m_s", 1}, {"p_deg_s", deg}, {"q_deg_s", deg},

@@ -133,6 +133,11 @@ struct FlightSettings {
   // moment with the weight, body axes) as a constant wrench, so that the hover is an equilibrium on average when the
   // grid's lift falls short of the weight; "keep" flies the residual (the insect sinks and pitches).
   std::string cfd_residual = "cancel";
+  // With [aero] model = "cfd", a perturbation and a [control] table: "open-loop" flies the unperturbed reference
+  // flight open loop and the controller senses the deviation from it; "closed-loop" flies the reference under the
+  // same controller, and both flights' controllers sense the deviation from the tethered hover (body at rest at O),
+  // the quasi-steady free flight's periodic orbit's counterpart.
+  std::string cfd_reference = "open-loop";
   // [flight.perturbation]: added to the start state. Keys u_m_s v_m_s w_m_s p_deg_s q_deg_s r_deg_s phi_deg
   // theta_deg psi_deg x_m y_m z_m, or mode = "longitudinal" | "lateral" (the most unstable Floquet mode of that
   // subsystem) scaled to mode_amplitude (non-dimensional max-norm).

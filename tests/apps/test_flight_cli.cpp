@@ -1,6 +1,9 @@
 // flapstab fly and flapstab control-map end to end: the files, their headers and keys, and bad input (exit status
 // 2, the file and key named, nothing written).
 #include <gtest/gtest.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -194,18 +197,23 @@ TEST(ControlMapCli, SmallHawkmothMap) {
 namespace flapstab {
 namespace {
 
+// The test moth under the Navier-Stokes model on a tiny grid (4 cells per chord, 120 steps per wingbeat, Re 20).
+std::string tiny_cfd_case_text() {
+  std::string text = testing::valid_cfd_case_text();
+  text = replaced(text, "model = \"quasi-steady\"", "model = \"cfd\"");
+  return replaced(text, "[trim]\n",
+                  "[aero.cfd]\ncells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\n"
+                  "lateral_R = 0\nabove_R = 0\nbelow_R = 0.5\nsteps_per_cycle = 120\nbody_divisions = 6\n"
+                  "wing_span_stations = 12\nwing_chord_divisions = 4\nthreads = 1\nreynolds = 20\ncycles = 2\n"
+                  "max_cycles = 2\ntrim_iterations = 0\n\n[trim]\n");
+}
+
 // fly with model = "cfd" end to end on a tiny grid (the test moth at 4 cells per mean chord, Re = 20, 120 steps per
 // wingbeat; its quasi-steady trim, not refined on the CFD loads), closed loop: the hover, the unperturbed reference
 // flight (open loop) and the perturbed one under the pitch controller; the files and their keys; and a run extended
 // from its checkpoint (1 wingbeat, then --wingbeats 2) equal to the straight run bit for bit.
 TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
-  std::string text = testing::valid_cfd_case_text();
-  text = replaced(text, "model = \"quasi-steady\"", "model = \"cfd\"");
-  text = replaced(text, "[trim]\n",
-                  "[aero.cfd]\ncells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\n"
-                  "above_R = 0\nbelow_R = 0.5\nsteps_per_cycle = 120\nbody_divisions = 6\nwing_span_stations = 12\n"
-                  "wing_chord_divisions = 4\nthreads = 1\nreynolds = 20\ncycles = 2\nmax_cycles = 2\ntrim_iterations = 0\n\n"
-                  "[trim]\n");
+  std::string text = tiny_cfd_case_text();
   text += "\n[flight]\ndof = \"longitudinal\"\nwingbeats = 2\nsamples_per_wingbeat = 20\n[flight.perturbation]\n"
           "q_deg_s = 50.0\n";
   // Closed loop: the pitch controller on the stroke plane, its latency not a whole number of steps (T / 120 =
@@ -302,6 +310,76 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
                                 " --wingbeats 0.05");
   ASSERT_EQ(rw.status, 0) << rw.out << rw.err;
   EXPECT_EQ(rw.out.find("hover state reused"), std::string::npos) << rw.out;  // another grid: the hover run afresh
+}
+
+// [flight] cfd_reference = "closed-loop": the reference flight flies under the controller too, and both flights'
+// commands are the law applied to their own deviation from the tethered hover (no latency here: the command of a
+// step is -(K_theta theta + K_q q) of that step's state, in degrees). A reference flown under a controller is not
+// reused by an open-loop-reference run (its checkpoint is keyed by the controller).
+TEST(FlyCli, CfdClosedLoopReferenceFliesUnderTheController) {
+  std::string text = tiny_cfd_case_text();
+  const double k_theta = 0.5, k_q = 0.005;
+  const std::string control = "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"stroke_mean_deg\"\n"
+                              "pitch_gain = 0.5\nrate_gain_s = 0.005\npitch_latency_s = 0\nrate_latency_s = 0\n"
+                              "limit_deg = 5\n";
+  const std::string flight = "\n[flight]\ndof = \"longitudinal\"\nsamples_per_wingbeat = 20\n";
+  const std::string closed =
+      text + flight + "cfd_reference = \"closed-loop\"\n[flight.perturbation]\nq_deg_s = 50.0\n" + control;
+  const std::string dir = fresh_dir("fly_cfd_closed_ref");
+  const CliResult r = flapstab("fly " + testing::write_temp("fly_cfd_closed_ref.toml", closed) + " -o " + dir +
+                               " --wingbeats 0.25");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("both flights fly under it"), std::string::npos) << r.out;
+  std::ifstream in(fs::path(dir) / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["flight"]["cfd_reference"], "closed-loop");
+  EXPECT_EQ(j["flight"]["controller"]["reference_flight"], "closed loop");
+  EXPECT_NE(std::string(j["flight"]["controller"]["senses"]).find("tethered hover"), std::string::npos);
+  // Each flight's commands against the law on its own state (columns: t, step, wingbeat, cfl, then x y z u v w p q r
+  // phi theta psi; the command last).
+  auto worst_error = [&](const fs::path& csv, double& largest) {
+    std::ifstream st(csv);
+    std::string line;
+    std::getline(st, line);
+    EXPECT_NE(line.find(",command_stroke_mean_deg"), std::string::npos) << line;
+    double worst = 0;
+    int rows = 0, unclamped = 0;
+    for (; std::getline(st, line); ++rows) {
+      std::vector<double> v;
+      std::stringstream ss(line);
+      for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+      const double deg = 180 / M_PI;
+      const double raw = -(k_theta * v.at(4 + 10) * deg + k_q * v.at(4 + 7) * deg), law = std::clamp(raw, -5.0, 5.0);
+      unclamped += std::abs(raw) < 5.0;
+      worst = std::max(worst, std::abs(v.back() - law));
+      largest = std::max(largest, std::abs(v.back()));
+    }
+    EXPECT_EQ(rows, 31) << csv;  // 30 steps and the start
+    EXPECT_GE(unclamped, 5) << csv;  // the law is checked inside the limits, not only at them
+    return worst;
+  };
+  double largest_ref = 0, largest_flight = 0;
+  const double e_ref = worst_error(fs::path(dir) / "reference_checkpoint.csv", largest_ref);
+  const double e_flight = worst_error(fs::path(dir) / "steps.csv", largest_flight);
+  std::printf("  closed-loop reference: command error %.1e deg (largest command %.3f deg), flight %.1e deg "
+              "(%.3f deg)\n", e_ref, largest_ref, e_flight, largest_flight);
+  EXPECT_LT(e_ref, 1e-9);
+  EXPECT_LT(e_flight, 1e-9);
+  EXPECT_GT(largest_ref, 1e-4);    // the reference flight's own rocking is fed back
+  EXPECT_GT(largest_flight, 0.2);  // 50 deg/s x 0.005 s = 0.25 deg at the start
+  // The default (open-loop reference) does not continue the closed-loop reference.
+  const std::string open = text + flight + "[flight.perturbation]\nq_deg_s = 50.0\n" + control;
+  const CliResult ro = flapstab("fly " + testing::write_temp("fly_cfd_open_ref.toml", open) + " -o " + dir +
+                                " --wingbeats 0.05");
+  ASSERT_EQ(ro.status, 0) << ro.out << ro.err;
+  EXPECT_NE(ro.out.find("reference: " + dir + "/reference_checkpoint.h5 is of another case"), std::string::npos)
+      << ro.out;
+  // A value that is neither: refused, naming the key.
+  const std::string bad = replaced(closed, "cfd_reference = \"closed-loop\"", "cfd_reference = \"closed\"");
+  const CliResult rb = flapstab("fly " + testing::write_temp("fly_cfd_bad_ref.toml", bad) + " -o " +
+                                fresh_dir("fly_cfd_bad_ref"));
+  EXPECT_NE(rb.status, 0);
+  EXPECT_NE(rb.err.find("cfd_reference"), std::string::npos) << rb.err;
 }
 
 }  // namespace

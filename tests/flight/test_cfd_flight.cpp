@@ -494,7 +494,8 @@ struct StrokePlaneRig {
   std::unique_ptr<ns::CfdModel> unused;
   std::unique_ptr<FlightDynamics> dyn;
   double dt = 0;  // the fluid step: 60 per wingbeat
-  explicit StrokePlaneRig(const std::string& name, bool heavy = false) : c(tiny_case(name)) {
+  explicit StrokePlaneRig(const std::string& name, bool heavy = false, const std::string& actuator = "stroke_plane_deg")
+      : c(tiny_case(name)) {
     if (heavy) {
       c.insect.body.mass *= 1e15;
       c.insect.body.inertia *= 1e15;
@@ -502,14 +503,14 @@ struct StrokePlaneRig {
     plan = ns::plan_cfd(c, c.kinematics, BodyMotion{});
     unused = std::make_unique<ns::CfdModel>(c, nullptr);
     dyn = std::make_unique<FlightDynamics>(*unused, c.insect, c.kinematics,
-                                           std::vector<TrimParameterSpec>{unbounded_parameter("stroke_plane_deg")},
+                                           std::vector<TrimParameterSpec>{unbounded_parameter(actuator)},
                                            heavy ? DofSet::six_dof : DofSet::longitudinal,
                                            heavy ? std::optional<double>(0.0) : std::nullopt, false, c.path);
     dt = c.kinematics.period() / 60;
   }
   static ControllerSpec controller(std::vector<FeedbackTerm> terms, ControlUpdate update = ControlUpdate::continuous) {
     ControllerSpec ctrl;
-    ctrl.actuators = {unbounded_parameter("stroke_plane_deg")};
+    ctrl.actuators = {unbounded_parameter(terms.empty() ? std::string("stroke_plane_deg") : terms.front().actuator)};
     ctrl.terms = std::move(terms);
     ctrl.update = update;
     return ctrl;
@@ -607,6 +608,49 @@ TEST(CfdFlight, CommandTiltsTheImmersedStrokePlane) {
   EXPECT_LT(worst_r, 1e-10);
   EXPECT_LT(worst_t, 1e-10 * rig.c.insect.wing.length);
   EXPECT_LT(worst_w, 1e-8);
+}
+
+// The same with the mean stroke angle as the actuator (the pitch lever of a shifted lift centre): a constant command
+// delta shifts each wing's stroke angle phi by delta, i.e. turns the wing about the stroke-plane normal through its
+// hinge. With R = R_sp Rz(-phi) ... (core/configuration) the right wing's pose is the trimmed one turned by
+// R_sp Rz(-delta) R_sp^T, the left (mirror image) by R_sp Rz(+delta) R_sp^T; hinges and body unmoved; the angular
+// velocity turns with the pose; a command of -5 deg moves the right wing's tip towards the tail (-x).
+TEST(CfdFlight, CommandShiftsTheImmersedMeanStroke) {
+  const StrokePlaneRig rig("cfd_flight_shift.toml", true, "stroke_mean_deg");
+  BodyStateVector shifted = BodyStateVector::Zero();
+  shifted(10) = -0.05;  // the sensed deviation +0.05 rad: command -5 deg
+  const auto flp = rig.flight(StrokePlaneRig::controller({{"theta", "stroke_mean_deg", 100, 0, 0}}),  // deg per rad
+                              [shifted](double) { return shifted; });
+  CfdFlight& fl = *flp;
+  fl.start(nullptr, BodyStateVector::Zero());
+  const double delta = -5 * pi / 180;
+  const Mat3 sp = rot_y(rig.c.kinematics.stroke_plane_in_stability());
+  const Mat3 turn_right = sp * rot_z(-delta) * sp.transpose(), turn_left = sp * rot_z(delta) * sp.transpose();
+  double worst_r = 0, worst_t = 0, worst_w = 0, tip_dx = 0;
+  for (int k = 0; k < 6; ++k) {
+    const CfdFlightStep s = fl.advance();
+    EXPECT_NEAR(s.command[0], -5.0, 1e-9);
+    const auto now = fl.simulation().part_states(), trim = fl.simulation().prescribed_parts(s.time);
+    ASSERT_EQ(now.size(), 3u);
+    for (std::size_t i = 0; i < now.size(); ++i) {
+      const bool right = trim[i].pose.translation.y() > 0;
+      const Mat3 expected = i == 0 ? Mat3::Identity() : right ? turn_right : turn_left;
+      worst_r = std::max(worst_r, (now[i].pose.rotation * trim[i].pose.rotation.transpose() - expected).norm());
+      worst_t = std::max(worst_t, (now[i].pose.translation - trim[i].pose.translation).norm());
+      worst_w = std::max(worst_w, (now[i].velocity.omega - expected * trim[i].velocity.omega).norm());
+      if (i != 0 && right) {  // the wing's span axis (y of its frame) carries the tip
+        const Vec3 tip_now = now[i].pose.rotation * Vec3::UnitY(), tip_trim = trim[i].pose.rotation * Vec3::UnitY();
+        tip_dx += (tip_now - tip_trim).x() / 6;
+      }
+    }
+  }
+  std::printf("  shifted mean stroke: rotation %.1e, hinge %.1e m, angular velocity %.1e rad/s off; right tip moves "
+              "%+.4f R along x\n",
+              worst_r, worst_t, worst_w, tip_dx);
+  EXPECT_LT(worst_r, 1e-10);
+  EXPECT_LT(worst_t, 1e-10 * rig.c.insect.wing.length);
+  EXPECT_LT(worst_w, 1e-8);
+  EXPECT_LT(tip_dx, -0.01);  // towards the tail
 }
 
 // A closed-loop flight continues bit for bit from a checkpoint: the sensed history (a latency of 3.4 steps) and a
