@@ -266,6 +266,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       else if (!controller.empty())
         fmt::print("  controller: {}; it senses the deviation from the {} (the reference flight flies open loop)\n",
                    controller.description, with_reference ? "unperturbed flight" : "tethered hover (body at rest at O)");
+      if (c.flight.cfd_reference == "closed-loop" && !closed_reference)
+        fmt::print("  note: [flight] cfd_reference = \"closed-loop\" has no effect here (it needs a [control] table "
+                   "and a perturbation, i.e. a reference flight)\n");
       fmt::print("  the tethered hover's residual (last wingbeat's mean wrench with the weight): X {:+.3f} W, Z "
                  "{:+.3f} W, M {:+.4f} W c; {}\n",
                  residual.force.x() / weight, residual.force.z() / weight, residual.moment.y() / mc,

@@ -418,9 +418,10 @@ TEST(Examples, FreeFlightCfdExampleClosedLoopPairIsStableInTheQuasiSteadyMap) {
   for (std::string line; std::getline(lines, line);)
     uncommented += (line.rfind("# ", 0) == 0 ? line.substr(2) : line) + "\n";
   text = text.substr(0, at) + uncommented;
-  const std::size_t m = text.find("model = \"cfd\"");
+  const std::string cfd_model = "model = \"cfd\"";
+  const std::size_t m = text.find(cfd_model);
   ASSERT_NE(m, std::string::npos);
-  text.replace(m, 13, "model = \"quasi-steady\"");
+  text.replace(m, cfd_model.size(), "model = \"quasi-steady\"");
   text += "[control.map]\ngains = 6\nlatencies = 6\nperiodic_gains = 2\nperiodic_latencies = 2\ncheck_points = 0\n";
   const fs::path dir = out_dir("fly_cfd_pair");
   const fs::path file = dir / "case.toml";
