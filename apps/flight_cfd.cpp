@@ -211,6 +211,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     std::string stop, checkpoint;
     bool resumed = false;
     double wall_s = 0;
+    json replans = json::array();  // the fine box's re-plans (with those before a resume)
   };
   std::optional<Flown> ref_flight;
   // What the sensors compare with at flight time s: the unperturbed flight's state (linear between its steps), or
@@ -236,6 +237,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   auto fly = [&](const BodyStateVector& x_init, const std::string& name, long limit) {
     Flown f;
     CfdFlight fl(c, dyn, plan);
+    fl.set_replanning(c.flight.cfd_replan);
     if (closed_reference)
       fl.set_controller(controller, [](double) { return BodyStateVector::Zero().eval(); });
     else if (name == "flight" && !controller.empty())
@@ -279,10 +281,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  ratio > 0.1 ? " -- WARNING: above 0.1 the lagged loads may feed back more than the body's mass and "
                                "the coupling can diverge (docs/theory/fluid-body-coupling.md)"
                              : " (the lagged loads' feedback is small)");
-      fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; the body must stay in the fine box "
-                 "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m\n",
+      fmt::print("  grid {} cells ({:.1f} per mean chord), {} steps per wingbeat; fine box [{:.4g}, {:.4g}] x "
+                 "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m, {:.3g} mm of room around the swept volume: {}\n",
                  ns::plan_grid(plan).cells(), plan.chord_cells, spc, plan.fine_lo.x(), plan.fine_hi.x(),
-                 plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z());
+                 plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z(), fl.room() * 1e3,
+                 c.flight.cfd_replan ? "re-planned around the body when a part has used half of it"
+                                     : "the body must stay in it ([flight] cfd_replan = false)");
       std::fflush(stdout);
     }
     // The key names the start too: the hover's last-wingbeat mean wrench (17 digits) stands for the hover state and
@@ -307,10 +311,24 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       const ns::CheckpointReader ck(ck_path);
       const auto it = ck.header().text.find("key");
       if (it != ck.header().text.end() && it->second == key) {
-        const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(plan).shape());
+        const auto& v = ck.header().values;
+        // The fine box the state was computed on (a checkpoint written before re-plans existed: the planned one).
+        ns::FineBoxShift shift;
+        for (int d = 0; d < 3; ++d) {
+          const auto lo = v.find(fmt::format("shift_lo{}", d)), hi = v.find(fmt::format("shift_hi{}", d));
+          if (lo != v.end()) shift.lo[std::size_t(d)] = int(std::lround(lo->second));
+          if (hi != v.end()) shift.hi[std::size_t(d)] = int(std::lround(hi->second));
+        }
+        if (const auto rp = ck.header().text.find("replans"); rp != ck.header().text.end()) {
+          try {
+            f.replans = json::parse(rp->second);
+          } catch (const std::exception&) {
+            throw InputError(ck_path, "replans", "not a JSON array", "the header flapstab fly wrote");
+          }
+        }
+        const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(ns::shifted_plan(plan, shift)).shape());
         BodyStateVector x;
         Wrench held;
-        const auto& v = ck.header().values;
         for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));
         for (int i = 0; i < 3; ++i)
           held.force(i) = v.at(fmt::format("F{}", i)), held.moment(i) = v.at(fmt::format("M{}", i));
@@ -328,7 +346,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           }
           if (r.step <= s.step) steps.push_back(r);
         }
-        fl.restore(s, x, held, steps);
+        fl.restore(s, x, held, steps, shift);
         f.resumed = true;
         if (!o.quiet)
           fmt::print("  {}: resumed from {} at step {} (t/T = {:.3f})\n", name, ck_path, s.step, s.time / T);
@@ -348,13 +366,18 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
       for (int i = 0; i < 3; ++i)
         v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
+      for (int d = 0; d < 3; ++d) {
+        v[fmt::format("shift_lo{}", d)] = fl.fine_box_shift().lo[std::size_t(d)];
+        v[fmt::format("shift_hi{}", d)] = fl.fine_box_shift().hi[std::size_t(d)];
+      }
       std::string rows = steps_header(actuators);
       for (const auto& s : steps) rows += steps_row(s, T);
       write_file_atomic(ck_rows, rows);
-      ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}});
+      ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}, {"replans", f.replans.dump()}});
     };
     const auto tr = std::chrono::steady_clock::now();
     const long start_step = steps.back().step;
+    std::size_t replans_seen = 0;
     // The perturbed (or only) flight's flow fields and surfaces, as flapstab cfd writes them ([aero.cfd]
     // fields_per_cycle, surfaces_per_cycle, field_precision; a resumed run appends to the series).
     const bool outputs = name == "flight";
@@ -373,6 +396,26 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         const double t_before = fl.simulation().time();
         const CfdFlightStep s = fl.advance();
         steps.push_back(s);
+        for (; replans_seen < fl.replans().size(); ++replans_seen) {
+          const CfdReplan& e = fl.replans()[replans_seen];
+          f.replans.push_back({{"step", e.step},
+                               {"t_s", e.time},
+                               {"wingbeat", e.time / T},
+                               {"gap_m", e.gap},
+                               {"shift_cells", {{"lo", e.shift.lo}, {"hi", e.shift.hi}}},
+                               {"fine_box_m", {{e.fine_lo.x(), e.fine_lo.y(), e.fine_lo.z()},
+                                               {e.fine_hi.x(), e.fine_hi.y(), e.fine_hi.z()}}},
+                               {"cells", e.cells},
+                               {"seconds", e.seconds}});
+          if (!o.quiet) {
+            fmt::print("  {}: the fine box re-planned at t/T = {:.3f} (a part came within {:.3g} mm of its face): now "
+                       "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m, {} cells, the flow carried over in "
+                       "{:.1f} s\n",
+                       name, e.time / T, e.gap * 1e3, e.fine_lo.x(), e.fine_hi.x(), e.fine_lo.y(), e.fine_hi.y(),
+                       e.fine_lo.z(), e.fine_hi.z(), e.cells, e.seconds);
+            std::fflush(stdout);
+          }
+        }
         if (outputs) {
           ns::StepReport rep;
           rep.t_before = t_before;
@@ -541,7 +584,12 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
               {"reynolds", plan.reynolds},
               {"loads", c.aero.cfd.loads},
               {"fine_box_m", {{plan.fine_lo.x(), plan.fine_lo.y(), plan.fine_lo.z()},
-                              {plan.fine_hi.x(), plan.fine_hi.y(), plan.fine_hi.z()}}}};
+                              {plan.fine_hi.x(), plan.fine_hi.y(), plan.fine_hi.z()}}},
+              {"replanning", c.flight.cfd_replan},
+              {"replans", {{"flight", main.replans}, {"reference", ref_flight ? ref_flight->replans : json::array()}}},
+              {"replans_note", "the fine box re-planned around the body when a part came within half the room "
+                               "(fine_margin_R) of its faces: step, time, the parts' distance to the old box, the "
+                               "shift of each face in fine cells, the new fine box (m), its cells, the wall time"}};
   if (const auto* h = model->hover_record()) {
     json cyc = json::array();
     for (const auto& q : h->cycles) cyc.push_back({{"lift_N", -q.mean.force.z()}, {"change", q.change}});

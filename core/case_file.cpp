@@ -771,6 +771,7 @@ Case load_case(const std::string& path) {
   f.start = fl.string("start", false, f.start, {"periodic-orbit", "rest"});
   f.cfd_residual = fl.string("cfd_residual", false, f.cfd_residual, {"cancel", "keep"});
   f.cfd_reference = fl.string("cfd_reference", false, f.cfd_reference, {"open-loop", "closed-loop"});
+  f.cfd_replan = fl.boolean_or("cfd_replan", f.cfd_replan);
   Section pert = fl.sub("perturbation", false);
   static const std::vector<std::pair<std::string, double>> pkeys = {
       {"x_m", 1}, {"y_m", 1}, {"z_m", 1}, {"u_m_s", 1}, {"v_m_s", 1}, {"w_m_s", 1}, {"p_deg_s", deg}, {"q_deg_s", deg},

@@ -138,6 +138,10 @@ struct FlightSettings {
   // same controller, and both flights' controllers sense the deviation from the tethered hover (body at rest at O),
   // the quasi-steady free flight's periodic orbit's counterpart.
   std::string cfd_reference = "open-loop";
+  // With [aero] model = "cfd": the grid's fine box is re-planned around the body when a part has used half of the
+  // room [aero.cfd] fine_margin_R gave it (the flow carried over to the new grid); false stops the flight with a
+  // checkpoint when a part leaves the fine box.
+  bool cfd_replan = true;
   // [flight.perturbation]: added to the start state. Keys u_m_s v_m_s w_m_s p_deg_s q_deg_s r_deg_s phi_deg
   // theta_deg psi_deg x_m y_m z_m, or mode = "longitudinal" | "lateral" (the most unstable Floquet mode of that
   // subsystem) scaled to mode_amplitude (non-dimensional max-norm).

@@ -1,7 +1,9 @@
 // Free flight coupled to the Navier-Stokes solver (cfd_flight.hpp).
 #include "flight/cfd_flight.hpp"
 
+#include <chrono>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -104,7 +106,7 @@ class CfdFlight::Feedback {
 };
 
 CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan)
-    : dyn_(dynamics), plan_(plan) {
+    : dyn_(dynamics), case_(c), base_plan_(plan), plan_(plan) {
   if (plan.steps_per_cycle <= 0)
     throw InputError(c.path, "aero.cfd.steps_per_cycle", "free flight coupled to the solver needs a fixed time step",
                      "steps_per_cycle > 0");
@@ -116,6 +118,9 @@ CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::Cf
     volume_.push_back(sim_->part_volume(i, &cen));
     centroid_.push_back(cen);
   }
+  room_ = std::numeric_limits<double>::infinity();
+  for (int d = 0; d < 3; ++d)
+    room_ = std::min({room_, plan.swept_lo[d] - plan.fine_lo[d], plan.fine_hi[d] - plan.swept_hi[d]});
 }
 
 CfdFlight::~CfdFlight() = default;
@@ -219,11 +224,13 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
   sim_->set_part_source([this](double t) { return parts_at(t); });
   cur_ = observe(sim_->step(), 0);
   base_aero_ = cur_.aero;
+  if (replan_) maybe_replan();  // a body started near a face of the fine box
   check_inside();
 }
 
 void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
-                        const std::vector<CfdFlightStep>& past) {
+                        const std::vector<CfdFlightStep>& past, const ns::FineBoxShift& shift) {
+  if (!(shift == shift_)) rebuild(shift);
   if (feedback_) {
     if (past.empty() || past.back().time != flow.time)
       throw SolveError("free flight: a closed-loop flight continues only with its steps up to the restored one");
@@ -249,8 +256,71 @@ CfdFlightStep CfdFlight::advance() {
   if (!x_.allFinite()) throw SolveError(fmt::format("free flight: the body state is not finite at t = {:.6g} s", r.time));
   if (feedback_) feedback_->accept(r.time, x_);
   cur_ = observe(r.step, r.cfl);
+  if (replan_) maybe_replan();
   check_inside();
   return cur_;
+}
+
+double CfdFlight::gap() const {
+  const ns::ImmersedBoundary* ib = sim_->immersed();
+  double g = std::numeric_limits<double>::infinity();
+  if (!ib) return g;
+  for (int i = 0; i < int(ib->parts()); ++i) {
+    const ns::BoundingBox bb = ib->surface(i, sim_->time()).bounding_box();
+    for (int a = 0; a < 3; ++a) g = std::min({g, bb.lo(a) - plan_.fine_lo(a), plan_.fine_hi(a) - bb.hi(a)});
+  }
+  return g;
+}
+
+void CfdFlight::rebuild(const ns::FineBoxShift& shift) {
+  const ns::CfdPlan p = ns::shifted_plan(base_plan_, shift);
+  sim_.reset();  // its memory first: the new grid may be larger
+  sim_ = std::make_unique<ns::Simulation>(case_, dyn_.trimmed(), BodyMotion{}, p);
+  plan_ = p;
+  shift_ = shift;
+}
+
+void CfdFlight::maybe_replan() {
+  const double g = gap();
+  if (!(g < 0.5 * room_)) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  // The planned swept volume (body axes; the body at rest at O) carried to the body's pose: the box of its corners,
+  // with the parts' current extents (a wing outside the planned volume), plus the room on every side.
+  const ns::BodyFrame b = ns::body_frame(x_, BodyStateVector::Zero());
+  ns::BoundingBox box;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 corner(k & 1 ? base_plan_.swept_hi.x() : base_plan_.swept_lo.x(),
+                      k & 2 ? base_plan_.swept_hi.y() : base_plan_.swept_lo.y(),
+                      k & 4 ? base_plan_.swept_hi.z() : base_plan_.swept_lo.z());
+    box.add(b.origin + b.rotation * corner);
+  }
+  for (int i = 0; i < sim_->part_count(); ++i) {
+    const ns::BoundingBox bb = sim_->immersed()->surface(i, sim_->time()).bounding_box();
+    box.add(bb.lo);
+    box.add(bb.hi);
+  }
+  const ns::FineBoxShift shift =
+      ns::fine_box_shift(base_plan_, box.lo - Vec3::Constant(room_), box.hi + Vec3::Constant(room_));
+  if (shift == shift_) return;  // the box cannot move further: check_inside decides
+  const ns::CfdPlan next = ns::shifted_plan(base_plan_, shift);
+  if (const std::size_t free = ns::available_memory_bytes(); free > 0)
+    ns::check_memory(next, case_.path, free + sim_->bytes());  // the old grid's memory is released first
+  const ns::SimulationState flow = sim_->state();
+  const ns::Grid from = sim_->grid();
+  rebuild(shift);
+  const ns::SimulationState moved = ns::transfer_state(flow, from, sim_->grid());
+  sim_->set_part_source([this](double t) { return parts_at(t); });
+  sim_->restore(moved);
+  CfdReplan r;
+  r.step = sim_->step();
+  r.time = sim_->time();
+  r.shift = shift;
+  r.fine_lo = plan_.fine_lo;
+  r.fine_hi = plan_.fine_hi;
+  r.cells = sim_->cells();
+  r.gap = g;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  replans_.push_back(r);
 }
 
 void CfdFlight::check_inside() const {
@@ -263,9 +333,12 @@ void CfdFlight::check_inside() const {
         throw BodyLeftGrid(fmt::format(
             "free flight: the {} left the grid's uniform fine box at t = {:.6g} s (step {}): it spans [{:.4g}, {:.4g}] "
             "m along {}, the fine box [{:.4g}, {:.4g}] m; the body is at ({:.4g}, {:.4g}, {:.4g}) m, pitch {:.2f} "
-            "deg; give it more room with [aero.cfd] fine_margin_R or fly fewer wingbeats",
+            "deg; {}",
             ib->label(i), sim_->time(), sim_->step(), bb.lo(a), bb.hi(a), "xyz"[a], plan_.fine_lo(a),
-            plan_.fine_hi(a), x_(0), x_(1), x_(2), x_(10) * 180 / M_PI));
+            plan_.fine_hi(a), x_(0), x_(1), x_(2), x_(10) * 180 / M_PI,
+            replan_ ? "the re-planned box could not hold it: give it more room with [aero.cfd] fine_margin_R"
+                    : "give it more room with [aero.cfd] fine_margin_R, let the box follow it ([flight] cfd_replan = "
+                      "true) or fly fewer wingbeats"));
   }
 }
 

@@ -5,8 +5,12 @@
 // Coupling (docs/theory/fluid-body-coupling.md):
 //  - The grid is fixed in space (the inertial axes of the body state, z down; at the zero state the body's
 //    stability axes and O coincide with the grid's): the far field is still air, the momentum equation has no frame
-//    terms, and the body moves through the uniform fine box, which must hold it: a part that leaves the fine box
-//    stops the run (BodyLeftGrid) so that the driver can write a checkpoint. [aero.cfd] fine_margin_R sets the room.
+//    terms, and the body moves through the uniform fine box. [aero.cfd] fine_margin_R sets the room m around the
+//    swept volume. With re-planning (set_replanning), when a part comes within m / 2 of a face of the fine box the
+//    box is re-planned on the same lattice (ns::shifted_plan) around the planned swept volume carried to the body's
+//    current position and attitude, plus m, and the flow is carried over to the new grid (ns::transfer_state);
+//    without it, or when the new box cannot hold the parts, a part that leaves the fine box stops the run
+//    (BodyLeftGrid) so that the driver can write a checkpoint.
 //  - Explicit, loosely coupled: over the step t_n -> t_n+1 the body's equations are integrated with the fluid's
 //    wrench at t_n held (classical Runge-Kutta, two sub-steps from t_n to each Runge-Kutta stage time of the fluid,
 //    so each stage sees the body where the held loads put it, with its analytic velocity and acceleration). The
@@ -43,6 +47,17 @@ namespace flapstab {
 class BodyLeftGrid : public SolveError {
  public:
   using SolveError::SolveError;
+};
+
+// A re-plan of the fine box (set_replanning).
+struct CfdReplan {
+  long step = 0;
+  double time = 0;           // s
+  ns::FineBoxShift shift;    // of the flight's first plan's fine box, in its fine cells
+  Vec3 fine_lo = Vec3::Zero(), fine_hi = Vec3::Zero();  // the new fine box (m, grid axes)
+  std::size_t cells = 0;     // of the new grid
+  double gap = 0;            // the parts' smallest distance to a face of the old fine box when it was re-planned (m)
+  double seconds = 0;        // wall time of the re-plan (new solver, carried-over flow)
 };
 
 // One coupled step.
@@ -92,9 +107,21 @@ class CfdFlight {
   // current step's aero).
   ns::SimulationState flow_state() const { return sim_->state(); }
   // past: the flight's steps from its start to the restored one (their times and states; only with a controller:
-  // its sensed history and filter states are replayed from them, so the continuation is exact).
+  // its sensed history and filter states are replayed from them, so the continuation is exact). shift: the fine
+  // box's shift the state was computed on (fine_box_shift() when it was taken).
   void restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
-               const std::vector<CfdFlightStep>& past = {});
+               const std::vector<CfdFlightStep>& past = {}, const ns::FineBoxShift& shift = {});
+
+  // Re-plans the fine box around the body when a part has used half its room (see the coupling notes above); off
+  // by default. Call before start or restore.
+  void set_replanning(bool on) { replan_ = on; }
+  // The current grid's plan and its fine box's shift from the plan the flight was built with.
+  const ns::CfdPlan& plan() const { return plan_; }
+  const ns::FineBoxShift& fine_box_shift() const { return shift_; }
+  // The re-plans since start or restore.
+  const std::vector<CfdReplan>& replans() const { return replans_; }
+  // The room the fine box gives the swept volume (m): the smallest margin of the first plan.
+  double room() const { return room_; }
 
   // Closes the loop (before start or restore): the controller's actuators must be the dynamics' (in its order or
   // not); reference(s) is the body state the sensors compare with at flight time s = t - t_start (s >= 0; before
@@ -113,7 +140,19 @@ class CfdFlight {
   BodyStateVector body_at(double t) const;
   std::vector<ns::PartState> parts_at(double t) const;
   void check_inside() const;
+  // The parts' smallest distance to a face of the fine box at the current time (m; negative: outside).
+  double gap() const;
+  // Re-plans when the parts are closer than room_ / 2 to the fine box (replan_).
+  void maybe_replan();
+  // A new simulation on the first plan's fine box shifted by `shift` (plan_, shift_ updated; no flow restored).
+  void rebuild(const ns::FineBoxShift& shift);
   const FlightDynamics& dyn_;
+  Case case_;
+  ns::CfdPlan base_plan_;
+  ns::FineBoxShift shift_;
+  bool replan_ = false;
+  double room_ = 0;
+  std::vector<CfdReplan> replans_;
   std::unique_ptr<ns::Simulation> sim_;
   std::vector<double> volume_;
   std::vector<Vec3> centroid_;

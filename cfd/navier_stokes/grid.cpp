@@ -41,6 +41,7 @@ StretchedAxis StretchedAxis::refined() const {
   StretchedAxis r = *this;
   r.h = h / 2;
   r.max_ratio = std::sqrt(max_ratio);
+  r.box_cells = 2 * box_cells;
   return r;
 }
 
@@ -103,7 +104,8 @@ Axis Axis::stretched(const StretchedAxis& s, bool periodic) {
   if (!(s.max_ratio >= 1.0 && s.max_ratio <= 1.1))
     bad("stretching ratio must lie in [1, 1.1] (second order needs smooth stretching), got " + std::to_string(s.max_ratio));
   if (s.multiple_of < 1) bad("multiple_of must be >= 1");
-  const int n_box0 = std::max(1, int(std::ceil((s.box_hi - s.box_lo) / s.h - 1e-9)));
+  if (s.box_cells < 0) bad("box_cells must be >= 0");
+  const int n_box0 = s.box_cells > 0 ? s.box_cells : std::max(1, int(std::ceil((s.box_hi - s.box_lo) / s.h - 1e-9)));
   if (n_box0 > 1 << 20) bad("fine box holds more than 2^20 cells per direction; check h");
   const double len_lo = s.box_lo - s.lo, len_hi = s.hi - s.box_hi;
   // The fewest cells whose count is a multiple of `multiple_of`: up to multiple_of - 1 more in the box, up to
@@ -113,7 +115,7 @@ Axis Axis::stretched(const StretchedAxis& s, bool periodic) {
   int n_box = 0, best_total = 1 << 30;
   double best_balance = 1e300;
   std::vector<double> w_lo, w_hi;
-  for (int b = n_box0; b < n_box0 + s.multiple_of; ++b) {
+  for (int b = n_box0; b < n_box0 + (s.box_cells > 0 ? 1 : s.multiple_of); ++b) {
     const double h = (s.box_hi - s.box_lo) / b;
     for (int el = 0; el <= s.multiple_of; ++el)
       for (int eh = 0; eh <= s.multiple_of; ++eh) {

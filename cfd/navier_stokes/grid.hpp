@@ -15,6 +15,7 @@ struct StretchedAxis {
   double h = 0.1;
   double max_ratio = 1.05;
   int multiple_of = 8;
+  int box_cells = 0;  // > 0: exactly this many cells in the fine box (a box re-planned on an earlier grid's lattice)
   // The same mapping sampled twice as densely: h/2 and sqrt(ratio) (for convergence studies).
   StretchedAxis refined() const;
 };

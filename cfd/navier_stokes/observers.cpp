@@ -143,7 +143,12 @@ RectilinearAxes rectilinear(const Grid& g) {
 
 void FieldOutput::write(const Simulation& sim) {
   const Grid& grid = sim.grid();
-  if (!writer_) writer_.emplace(dir_, "fields", rectilinear(grid), precision_);
+  // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
+  RectilinearAxes axes = rectilinear(grid);
+  if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
+    writer_.emplace(dir_, "fields", axes, precision_);
+    axes_ = std::move(axes);
+  }
   const CentreFields cf = centre_fields(grid, sim.solver().velocity());
   const Shape sh = grid.shape();
   std::vector<double> pa(sh.cells());

@@ -104,6 +104,7 @@ class FieldOutput final : public PerCycleOutput {
 
  private:
   FieldPrecision precision_;
+  RectilinearAxes axes_;  // the writer's grid
   std::optional<FieldWriter> writer_;
 };
 

@@ -35,6 +35,73 @@ Grid plan_grid(const CfdPlan& plan) {
               Axis::stretched(plan.axes[2], false));
 }
 
+namespace {
+
+// The fine cells of plan's axis d: their count and width (the generator divides the box evenly).
+std::pair<int, double> fine_cells(const CfdPlan& plan, int d) {
+  const StretchedAxis& a = plan.axes[std::size_t(d)];
+  const Axis axis = Axis::stretched(a, false);
+  int n = 0;
+  for (int i = 1; i <= axis.n; ++i)
+    if (axis.xc[i] > a.box_lo && axis.xc[i] < a.box_hi) ++n;
+  return {n, (a.box_hi - a.box_lo) / n};
+}
+
+// Axis d of plan with its fine box's low face moved by lo and its high face by hi fine cells.
+StretchedAxis shifted_axis(const CfdPlan& plan, int d, int lo, int hi) {
+  const auto [n, h] = fine_cells(plan, d);
+  if (n + hi - lo < 1) throw std::invalid_argument(fmt::format("shifted_plan: no fine cell left along {}", "xyz"[d]));
+  StretchedAxis a = plan.axes[std::size_t(d)];
+  a.lo += lo * h;
+  a.box_lo += lo * h;
+  a.box_hi += hi * h;
+  a.hi += hi * h;
+  a.h = h;
+  a.box_cells = n + hi - lo;
+  return a;
+}
+
+}  // namespace
+
+CfdPlan shifted_plan(const CfdPlan& plan, const FineBoxShift& shift) {
+  if (shift.empty()) return plan;
+  CfdPlan p = plan;
+  for (int d = 0; d < 3; ++d) {
+    StretchedAxis& a = p.axes[std::size_t(d)];
+    a = shifted_axis(plan, d, shift.lo[std::size_t(d)], shift.hi[std::size_t(d)]);
+    p.fine_lo[d] = a.box_lo;
+    p.fine_hi[d] = a.box_hi;
+    p.domain_lo[d] = a.lo;
+    p.domain_hi[d] = a.hi;
+  }
+  return p;
+}
+
+FineBoxShift fine_box_shift(const CfdPlan& plan, const Vec3& lo, const Vec3& hi) {
+  FineBoxShift s;
+  for (int d = 0; d < 3; ++d) {
+    const double h = fine_cells(plan, d).second;
+    const StretchedAxis& a = plan.axes[std::size_t(d)];
+    // Outward to the lattice, a face already on it (to rounding) kept.
+    int& l = s.lo[std::size_t(d)];
+    int& u = s.hi[std::size_t(d)];
+    l = int(std::floor((lo[d] - a.box_lo) / h + 1e-9));
+    u = int(std::ceil((hi[d] - a.box_hi) / h - 1e-9));
+    // The total cell count must be a multiple of the multigrid's; where the stretched cells cannot make it so (none
+    // on either side, or sides too short to take another cell), the high face moves further out until it is.
+    for (int extra = 0;; ++extra) {
+      try {
+        Axis::stretched(shifted_axis(plan, d, l, u + extra), false);
+        u += extra;
+        break;
+      } catch (const std::invalid_argument&) {
+        if (extra > 2 * a.multiple_of) throw;
+      }
+    }
+  }
+  return s;
+}
+
 std::size_t estimated_bytes(const CfdPlan& plan) {
   const Grid g = plan_grid(plan);
   const Shape sh = g.shape();

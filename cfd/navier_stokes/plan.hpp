@@ -8,6 +8,7 @@
 //  - Reynolds number Re = U_ref L_ref / nu with U_ref = 2 Phi f R (mean wingtip speed), L_ref = mean chord; the
 //    kinematic viscosity is [fluid] kinematic_viscosity_m2_s unless [aero.cfd] reynolds sets it to U_ref L_ref / Re.
 #pragma once
+#include <array>
 #include <string>
 #include <vector>
 #include "cfd/navier_stokes/geometry.hpp"
@@ -52,6 +53,21 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
 
 // The plan's grid.
 Grid plan_grid(const CfdPlan& plan);
+
+// A fine box re-planned on the lattice of a plan's (a free flight's body leaving the room it was given): each face
+// of the fine box moved by a whole number of its fine cells (lo: the lower faces, hi: the upper ones; positive
+// along the axis). The stretched cells and the domain faces keep their distances from the box (the domain moves
+// with it), so the fine cells of the two grids coincide where their boxes overlap.
+struct FineBoxShift {
+  std::array<int, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  bool empty() const { return lo == std::array<int, 3>{0, 0, 0} && hi == std::array<int, 3>{0, 0, 0}; }
+  bool operator==(const FineBoxShift&) const = default;
+};
+// The plan with its fine box shifted (an empty shift: the plan itself). std::invalid_argument for a box of fewer
+// than 1 cell along an axis.
+CfdPlan shifted_plan(const CfdPlan& plan, const FineBoxShift& shift);
+// The shift of plan's fine box to the smallest box on its lattice that holds [lo, hi] (m, grid axes).
+FineBoxShift fine_box_shift(const CfdPlan& plan, const Vec3& lo, const Vec3& hi);
 // Cells and extents of a grid, exactly (checkpoints compare it).
 std::string grid_summary(const Grid& g);
 MeshResolution mesh_resolution(const CfdSettings& s);

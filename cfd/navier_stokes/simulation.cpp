@@ -2,6 +2,7 @@
 #include "cfd/navier_stokes/simulation.hpp"
 #include "cfd/navier_stokes/poisson_hypre.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <optional>
@@ -311,6 +312,78 @@ SurfacePressure Simulation::surface_pressure(int part) const {
 }
 
 // ---- state files -----------------------------------------------------------------------------------------------
+
+namespace {
+
+// Where coordinate x falls on a lattice c[first..last] (increasing): between c[i] and c[i + 1] with weight w on
+// c[i + 1]; clamped to the end points outside it. outside: x lies beyond the domain [lo, hi] (to rounding).
+struct Bracket {
+  int i = 0;
+  double w = 0;
+  bool outside = false;
+};
+
+Bracket bracket(const std::vector<double>& c, int first, int last, double x, double lo, double hi) {
+  Bracket b;
+  const double tol = 1e-9 * (hi - lo);
+  b.outside = x < lo - tol || x > hi + tol;
+  if (x <= c[std::size_t(first)]) return {first, 0.0, b.outside};
+  if (x >= c[std::size_t(last)]) return {last - 1, 1.0, b.outside};
+  const auto it = std::upper_bound(c.begin() + first, c.begin() + last + 1, x);  // c[i] <= x < c[i + 1]
+  b.i = int(it - c.begin()) - 1;
+  b.w = (x - c[std::size_t(b.i)]) / (c[std::size_t(b.i) + 1] - c[std::size_t(b.i)]);
+  return b;
+}
+
+// One field on the lattice of component d (d = -1: cell centres) of grid `from`, at the same lattice of `to`.
+void transfer_field(const Field& src, const Grid& from, Field& dst, const Grid& to, int d) {
+  std::array<std::vector<Bracket>, 3> br;
+  for (int a = 0; a < 3; ++a) {
+    const Axis& f = from.axis[std::size_t(a)];
+    const Axis& t = to.axis[std::size_t(a)];
+    const bool face = a == d;
+    for (int i = 0; i <= t.n + 1; ++i)
+      br[std::size_t(a)].push_back(face ? bracket(f.xf, 1, f.n + 1, t.xf[std::size_t(i)], f.lo, f.hi)
+                                        : bracket(f.xc, 1, f.n, t.xc[std::size_t(i)], f.lo, f.hi));
+  }
+  const Shape sh = dst.shape();
+#pragma omp parallel for schedule(static) if (threaded(sh))
+  for (int k = 0; k <= sh.nz + 1; ++k)
+    for (int j = 0; j <= sh.ny + 1; ++j)
+      for (int i = 0; i <= sh.nx + 1; ++i) {
+        const Bracket& bx = br[0][std::size_t(i)];
+        const Bracket& by = br[1][std::size_t(j)];
+        const Bracket& bz = br[2][std::size_t(k)];
+        if (bx.outside || by.outside || bz.outside) {
+          dst(i, j, k) = 0;
+          continue;
+        }
+        double v = 0;
+        for (int c = 0; c < 8; ++c) {
+          const double w = (c & 1 ? bx.w : 1 - bx.w) * (c & 2 ? by.w : 1 - by.w) * (c & 4 ? bz.w : 1 - bz.w);
+          if (w != 0) v += w * src(bx.i + (c & 1), by.i + (c & 2 ? 1 : 0), bz.i + (c & 4 ? 1 : 0));
+        }
+        dst(i, j, k) = real(v);
+      }
+}
+
+}  // namespace
+
+SimulationState transfer_state(const SimulationState& s, const Grid& from, const Grid& to) {
+  if (!(s.u[0].shape() == from.shape()))
+    throw std::invalid_argument("transfer_state: the state's grid shape differs from the source grid's");
+  SimulationState r;
+  r.time = s.time;
+  r.step = s.step;
+  r.dt_last = s.dt_last;
+  r.u = VectorField(to.shape());
+  r.phi = VectorField(to.shape());
+  r.p = Field(to.shape());
+  r.guess = false;
+  for (int d = 0; d < 3; ++d) transfer_field(s.u[d], from, r.u[d], to, d);
+  transfer_field(s.p, from, r.p, to, -1);
+  return r;
+}
 
 void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,
                  std::map<std::string, std::string> text) {

@@ -136,6 +136,15 @@ class Simulation {
   double dt_last_ = 0;
 };
 
+// The state carried over to another grid of the same still air (a free flight's re-planned fine box): each
+// staggered velocity component and the pressure interpolated (trilinearly, on their own lattices: faces along the
+// component, cell centres across) at the new grid's points, still air (zero velocity and pressure) where the new
+// grid reaches beyond the old domain, nearest values between a domain face and its first cell centre. Time, step and
+// the last dt are kept; the Poisson initial guesses are dropped (guess = false). Where the fine cells of the two
+// grids coincide (shifted_plan) the values are copied to rounding; elsewhere the interpolated velocity is not
+// discretely divergence-free, and the next step's projection makes it so.
+SimulationState transfer_state(const SimulationState& s, const Grid& from, const Grid& to);
+
 // Checkpoint files of a simulation state (HDF5, docs/cfd-files.md): arrays u0 u1 u2 p phi0 phi1 phi2 bit for bit,
 // header time, step, dt, guess plus the given values and texts.
 void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,

@@ -312,6 +312,54 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   EXPECT_EQ(rw.out.find("hover state reused"), std::string::npos) << rw.out;  // another grid: the hover run afresh
 }
 
+// The fine box re-planned in a coupled flight (the body started 50 mm forward: a part within half the room of 0.4 R):
+// the event printed and in run.json, and a flight stopped after the re-plan and extended from its checkpoint (whose
+// header holds the box's shift) equal to the straight flight bit for bit. A cfd_replan that is not a boolean is
+// refused naming the key.
+TEST(FlyCli, CfdFlightReplansTheFineBoxAndResumesOnTheNewGrid) {
+  const std::string text = tiny_cfd_case_text() +
+                           "\n[flight]\ndof = \"longitudinal\"\nstart = \"rest\"\nsamples_per_wingbeat = 20\n"
+                           "[flight.perturbation]\nx_m = 0.05\n";
+  const std::string path = testing::write_temp("fly_cfd_replan.toml", text);
+  const std::string a = fresh_dir("fly_cfd_replan_a"), b = fresh_dir("fly_cfd_replan_b");
+  const CliResult ra = flapstab("fly " + path + " -o " + a + " --wingbeats 0.2");
+  ASSERT_EQ(ra.status, 0) << ra.out << ra.err;
+  EXPECT_NE(ra.out.find("re-planned around the body"), std::string::npos) << ra.out;
+  EXPECT_NE(ra.out.find("flight: the fine box re-planned at t/T"), std::string::npos) << ra.out;
+  std::ifstream in(fs::path(a) / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["cfd"]["replanning"].get<bool>());
+  ASSERT_GE(j["cfd"]["replans"]["flight"].size(), 1u) << j["cfd"].dump();
+  const auto& e = j["cfd"]["replans"]["flight"][0];
+  EXPECT_GT(e["shift_cells"]["hi"][0].get<int>(), 0) << e.dump();  // forward
+  EXPECT_GT(e["fine_box_m"][1][0].get<double>(), j["cfd"]["fine_box_m"][1][0].get<double>());
+  const CliResult rb1 = flapstab("fly " + path + " -o " + b + " --wingbeats 0.1");
+  ASSERT_EQ(rb1.status, 0) << rb1.out << rb1.err;
+  const CliResult rb2 = flapstab("fly " + path + " -o " + b + " --wingbeats 0.2");
+  ASSERT_EQ(rb2.status, 0) << rb2.out << rb2.err;
+  EXPECT_NE(rb2.out.find("resumed from"), std::string::npos) << rb2.out;
+  std::ifstream jb(fs::path(b) / "run.json");
+  const nlohmann::json k = nlohmann::json::parse(jb);
+  // The checkpoint's header kept the earlier re-plan (its wall time aside).
+  nlohmann::json ea = j["cfd"]["replans"]["flight"], eb = k["cfd"]["replans"]["flight"];
+  for (auto* list : {&ea, &eb})
+    for (auto& ev : *list) ev.erase("seconds");
+  EXPECT_EQ(ea, eb);
+  auto slurp = [](const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
+  const CliResult bad =
+      flapstab("fly " + testing::write_temp("fly_cfd_replan_bad.toml", replaced(text, "start = \"rest\"",
+                                                                               "start = \"rest\"\ncfd_replan = \"yes\"")) +
+               " -o " + fresh_dir("fly_cfd_replan_bad"));
+  EXPECT_EQ(bad.status, 2) << bad.out << bad.err;
+  EXPECT_NE(bad.err.find("flight.cfd_replan"), std::string::npos) << bad.err;
+}
+
 // [flight] cfd_reference = "closed-loop": the reference flight flies under the controller too, and both flights'
 // commands are the law applied to their own deviation from the tethered hover (no latency here: the command of a
 // step is -(K_theta theta + K_q q) of that step's state, in degrees). A reference flown under a controller is not

@@ -100,6 +100,159 @@ TEST(CfdPlan, GridHoldsTheSweptVolumeAtTheRequestedSpacing) {
   EXPECT_TRUE(p.warnings.empty());
 }
 
+// A fine box re-planned on the lattice (a free flight's body drifting): each face moves by whole fine cells, the
+// fine faces of the two grids coincide where the boxes overlap (to rounding), the stretched cells and the domain
+// keep their distances from the box, and fine_box_shift finds the smallest box on the lattice holding a request.
+TEST(CfdPlan, ShiftedFineBoxStaysOnTheLattice) {
+  const Case c = cfd_case("shift.toml", "cells_per_chord = 6\nstretch_ratio = 1.06\nbelow_R = 2\n");
+  const CfdPlan p = plan_cfd(c, c.kinematics, BodyMotion{});
+  const FineBoxShift shift{{3, -2, 0}, {5, -2, 1}};
+  const CfdPlan q = shifted_plan(p, shift);
+  const Grid g0 = plan_grid(p), g1 = plan_grid(q);
+  for (int d = 0; d < 3; ++d) {
+    const Axis& a0 = g0.axis[std::size_t(d)];
+    const Axis& a1 = g1.axis[std::size_t(d)];
+    int n0 = 0, n1 = 0;
+    for (int i = 1; i <= a0.n; ++i) n0 += a0.xc[std::size_t(i)] > p.fine_lo[d] && a0.xc[std::size_t(i)] < p.fine_hi[d];
+    for (int i = 1; i <= a1.n; ++i) n1 += a1.xc[std::size_t(i)] > q.fine_lo[d] && a1.xc[std::size_t(i)] < q.fine_hi[d];
+    const double h = (p.fine_hi[d] - p.fine_lo[d]) / n0;
+    const int lo = shift.lo[std::size_t(d)], hi = shift.hi[std::size_t(d)];
+    EXPECT_EQ(n1, n0 + hi - lo) << d;
+    EXPECT_NEAR(q.fine_lo[d], p.fine_lo[d] + lo * h, 1e-12 * h) << d;
+    EXPECT_NEAR(q.fine_hi[d], p.fine_hi[d] + hi * h, 1e-12 * h) << d;
+    EXPECT_NEAR(q.domain_lo[d] - q.fine_lo[d], p.domain_lo[d] - p.fine_lo[d], 1e-12 * h) << d;
+    EXPECT_NEAR(q.domain_hi[d] - q.fine_hi[d], p.domain_hi[d] - p.fine_hi[d], 1e-12 * h) << d;
+    EXPECT_DOUBLE_EQ(a1.lo, q.domain_lo[d]);
+    EXPECT_LE(a1.max_ratio(), 1.06 * (1 + 1e-9));
+    EXPECT_EQ(a1.n % 8, 0);
+    // Every face of the new fine box inside the old one is a face of the old grid.
+    int matched = 0;
+    for (int i = 1; i <= a1.n + 1; ++i) {
+      const double x = a1.xf[std::size_t(i)];
+      if (x < std::max(p.fine_lo[d], q.fine_lo[d]) - 1e-9 * h || x > std::min(p.fine_hi[d], q.fine_hi[d]) + 1e-9 * h)
+        continue;
+      double best = 1e300;
+      for (int k = 1; k <= a0.n + 1; ++k) best = std::min(best, std::abs(a0.xf[std::size_t(k)] - x));
+      EXPECT_LT(best, 1e-9 * h) << d << " face " << i;
+      ++matched;
+    }
+    EXPECT_GE(matched, n0 - 5);
+  }
+  EXPECT_EQ(shifted_plan(p, FineBoxShift{}).fine_lo, p.fine_lo);
+  EXPECT_TRUE(fine_box_shift(p, p.fine_lo, p.fine_hi).empty());
+  // A request 2.3 cells inside the low faces and 0.5 cell inside the high ones, and one 1.2 cells beyond them.
+  std::array<double, 3> h;
+  for (int d = 0; d < 3; ++d) {
+    const Axis& a0 = g0.axis[std::size_t(d)];
+    int n0 = 0;
+    for (int i = 1; i <= a0.n; ++i) n0 += a0.xc[std::size_t(i)] > p.fine_lo[d] && a0.xc[std::size_t(i)] < p.fine_hi[d];
+    h[std::size_t(d)] = (p.fine_hi[d] - p.fine_lo[d]) / n0;
+  }
+  const Vec3 hv(h[0], h[1], h[2]);
+  const FineBoxShift in = fine_box_shift(p, p.fine_lo + 2.3 * hv, p.fine_hi - 0.5 * hv);
+  const FineBoxShift out = fine_box_shift(p, p.fine_lo - 1.2 * hv, p.fine_hi + 1.2 * hv);
+  for (std::size_t d = 0; d < 3; ++d) {
+    EXPECT_EQ(in.lo[d], 2);
+    EXPECT_EQ(in.hi[d], 0);
+    EXPECT_EQ(out.lo[d], -2);
+    EXPECT_EQ(out.hi[d], 2);
+  }
+  EXPECT_THROW(shifted_plan(p, FineBoxShift{{0, 0, 0}, {-100000, 0, 0}}), std::invalid_argument);
+}
+
+// The flow carried to another grid (transfer_state): linear velocity components and pressure are reproduced exactly
+// (trilinear interpolation) wherever the new point lies within the old lattice, the new grid's points beyond the old
+// domain get still air, the same grid gives the state back bit for bit, and the Poisson guesses are dropped.
+TEST(CfdPlan, TransferredStateReproducesLinearFieldsAndStillAirOutside) {
+  StretchedAxis sa;
+  sa.lo = -1;
+  sa.hi = 1.5;
+  sa.box_lo = -0.4;
+  sa.box_hi = 0.6;
+  sa.h = 0.05;
+  sa.max_ratio = 1.08;
+  StretchedAxis sb = sa;  // shifted by 0.37 and with a finer box: the lattices do not coincide
+  sb.lo += 0.37;
+  sb.hi += 0.37;
+  sb.box_lo += 0.37;
+  sb.box_hi += 0.37;
+  sb.h = 0.043;
+  const Grid from(Axis::stretched(sa, false), Axis::stretched(sa, false), Axis::stretched(sa, false));
+  const Grid to(Axis::stretched(sb, false), Axis::stretched(sa, false), Axis::stretched(sb, false));
+  auto lin = [](int d, const std::array<double, 3>& x) { return 1 + d + 2 * x[0] - 3 * x[1] + 0.5 * x[2]; };
+  SimulationState s;
+  s.time = 0.25;
+  s.step = 17;
+  s.dt_last = 1e-3;
+  s.guess = true;
+  const Shape sh = from.shape();
+  s.u = VectorField(sh);
+  s.phi = VectorField(sh);
+  s.p = Field(sh);
+  for (int k = 0; k <= sh.nz + 1; ++k)
+    for (int j = 0; j <= sh.ny + 1; ++j)
+      for (int i = 0; i <= sh.nx + 1; ++i) {
+        for (int d = 0; d < 3; ++d) s.u[d](i, j, k) = lin(d, from.point(d, i, j, k));
+        s.p(i, j, k) = lin(5, from.centre(i, j, k));
+        s.phi[0](i, j, k) = 1;
+      }
+  const SimulationState t = transfer_state(s, from, to);
+  EXPECT_EQ(t.time, s.time);
+  EXPECT_EQ(t.step, s.step);
+  EXPECT_EQ(t.dt_last, s.dt_last);
+  EXPECT_FALSE(t.guess);
+  // Within the old lattice of each component: exact; beyond the old domain: zero.
+  auto within = [&](int d, const std::array<double, 3>& x) {
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = from.axis[std::size_t(a)];
+      const double first = a == d ? ax.xf[1] : ax.xc[1], last = a == d ? ax.xf[std::size_t(ax.n + 1)] : ax.xc[std::size_t(ax.n)];
+      if (x[std::size_t(a)] < first || x[std::size_t(a)] > last) return false;
+    }
+    return true;
+  };
+  auto beyond = [&](const std::array<double, 3>& x) {
+    for (int a = 0; a < 3; ++a)
+      if (x[std::size_t(a)] < from.axis[std::size_t(a)].lo - 1e-9 || x[std::size_t(a)] > from.axis[std::size_t(a)].hi + 1e-9)
+        return true;
+    return false;
+  };
+  const Shape ts = to.shape();
+  double worst = 0;
+  long exact = 0, outside = 0;
+  for (int k = 0; k <= ts.nz + 1; ++k)
+    for (int j = 0; j <= ts.ny + 1; ++j)
+      for (int i = 0; i <= ts.nx + 1; ++i) {
+        for (int d = 0; d < 3; ++d) {
+          const auto x = to.point(d, i, j, k);
+          if (beyond(x)) {
+            EXPECT_EQ(t.u[d](i, j, k), 0.0);
+            ++outside;
+          } else if (within(d, x)) {
+            worst = std::max(worst, std::abs(t.u[d](i, j, k) - lin(d, x)));
+            ++exact;
+          }
+        }
+        const auto xc = to.centre(i, j, k);
+        if (within(-1, xc)) worst = std::max(worst, std::abs(t.p(i, j, k) - lin(5, xc)));
+        EXPECT_EQ(t.phi[0](i, j, k), 0.0);
+      }
+  std::printf("  transfer: %ld points within the old lattice, worst error %.2e; %ld beyond the old domain\n", exact,
+              worst, outside);
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_GT(exact, 1000);
+  EXPECT_GT(outside, 100);
+  // The same grid: the interior values back bit for bit (ghosts take the nearest interior value or still air).
+  const SimulationState same = transfer_state(s, from, from);
+  for (int k = 1; k <= sh.nz; ++k)
+    for (int j = 1; j <= sh.ny; ++j)
+      for (int i = 1; i <= sh.nx; ++i) {
+        for (int d = 0; d < 3; ++d) ASSERT_EQ(same.u[d](i, j, k), s.u[d](i, j, k));
+        ASSERT_EQ(same.p(i, j, k), s.p(i, j, k));
+      }
+  const Grid other(Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false));
+  EXPECT_THROW(transfer_state(s, other, from), std::invalid_argument);  // the state is not of `other`
+}
+
 TEST(CfdPlan, ReynoldsOverridesTheViscosity) {
   const Case c = cfd_case("re.toml", "reynolds = 250\n");
   const CfdPlan p = plan_cfd(c, c.kinematics, BodyMotion{});
