@@ -400,7 +400,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           const CfdReplan& e = fl.replans()[replans_seen];
           f.replans.push_back({{"step", e.step},
                                {"t_s", e.time},
-                               {"wingbeat", e.time / T},
+                               {"wingbeat", (e.time - steps.front().time) / T},  // of the flight
                                {"gap_m", e.gap},
                                {"shift_cells", {{"lo", e.shift.lo}, {"hi", e.shift.hi}}},
                                {"fine_box_m", {{e.fine_lo.x(), e.fine_lo.y(), e.fine_lo.z()},
@@ -408,11 +408,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                {"cells", e.cells},
                                {"seconds", e.seconds}});
           if (!o.quiet) {
-            fmt::print("  {}: the fine box re-planned at t/T = {:.3f} (a part came within {:.3g} mm of its face): now "
-                       "[{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m, {} cells, the flow carried over in "
-                       "{:.1f} s\n",
-                       name, e.time / T, e.gap * 1e3, e.fine_lo.x(), e.fine_hi.x(), e.fine_lo.y(), e.fine_hi.y(),
-                       e.fine_lo.z(), e.fine_hi.z(), e.cells, e.seconds);
+            fmt::print("  {}: the fine box re-planned at wingbeat {:.3f} (a part came within {:.3g} mm of its "
+                       "face): now [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m, {} cells, the flow "
+                       "carried over in {:.1f} s\n",
+                       name, (e.time - steps.front().time) / T, e.gap * 1e3, e.fine_lo.x(), e.fine_hi.x(),
+                       e.fine_lo.y(), e.fine_hi.y(), e.fine_lo.z(), e.fine_hi.z(), e.cells, e.seconds);
             std::fflush(stdout);
           }
         }

@@ -42,6 +42,7 @@ void coupled_against_prescribed(benchmark::State& state, bool closed_loop) {
     coupled.set_controller(pitch_controller(p, parameter_value(c.kinematics, "stroke_plane_deg")),
                            [](double) { return BodyStateVector::Zero().eval(); });
   }
+  coupled.set_replanning(true);  // as flapstab fly flies: the fine box's room checked after every step
   coupled.start(nullptr, x0);
   omp_set_num_threads(int(state.range(0)));
   for (int k = 0; k < 10; ++k) prescribed.advance(), coupled.advance();

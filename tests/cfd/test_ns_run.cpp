@@ -205,15 +205,17 @@ TEST(CfdPlan, TransferredStateReproducesLinearFieldsAndStillAirOutside) {
   auto within = [&](int d, const std::array<double, 3>& x) {
     for (int a = 0; a < 3; ++a) {
       const Axis& ax = from.axis[std::size_t(a)];
-      const double first = a == d ? ax.xf[1] : ax.xc[1], last = a == d ? ax.xf[std::size_t(ax.n + 1)] : ax.xc[std::size_t(ax.n)];
+      const double first = a == d ? ax.xf[1] : ax.xc[1];
+      const double last = a == d ? ax.xf[std::size_t(ax.n + 1)] : ax.xc[std::size_t(ax.n)];
       if (x[std::size_t(a)] < first || x[std::size_t(a)] > last) return false;
     }
     return true;
   };
   auto beyond = [&](const std::array<double, 3>& x) {
-    for (int a = 0; a < 3; ++a)
-      if (x[std::size_t(a)] < from.axis[std::size_t(a)].lo - 1e-9 || x[std::size_t(a)] > from.axis[std::size_t(a)].hi + 1e-9)
-        return true;
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = from.axis[std::size_t(a)];
+      if (x[std::size_t(a)] < ax.lo - 1e-9 || x[std::size_t(a)] > ax.hi + 1e-9) return true;
+    }
     return false;
   };
   const Shape ts = to.shape();
