@@ -224,8 +224,7 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
   sim_->set_part_source([this](double t) { return parts_at(t); });
   cur_ = observe(sim_->step(), 0);
   base_aero_ = cur_.aero;
-  if (replan_) maybe_replan();  // a body started near a face of the fine box
-  check_inside();
+  check_room();  // a body started near a face of the fine box is re-planned at once
 }
 
 void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
@@ -256,19 +255,29 @@ CfdFlightStep CfdFlight::advance() {
   if (!x_.allFinite()) throw SolveError(fmt::format("free flight: the body state is not finite at t = {:.6g} s", r.time));
   if (feedback_) feedback_->accept(r.time, x_);
   cur_ = observe(r.step, r.cfl);
-  if (replan_) maybe_replan();
-  check_inside();
+  check_room();
   return cur_;
 }
 
-double CfdFlight::gap() const {
+std::vector<ns::BoundingBox> CfdFlight::part_boxes() const {
   const ns::ImmersedBoundary* ib = sim_->immersed();
+  if (!ib) return {};
+  const std::vector<ns::PartState> states = sim_->part_states();
+  std::vector<ns::BoundingBox> out;
+  for (int i = 0; i < int(ib->parts()); ++i) out.push_back(ib->surface(i, states[std::size_t(i)]).bounding_box());
+  return out;
+}
+
+void CfdFlight::check_room() {
+  const std::vector<ns::BoundingBox> boxes = part_boxes();
+  if (replan_) maybe_replan(boxes);  // the parts stay where they are: the same boxes on the new grid
+  check_inside(boxes);
+}
+
+double CfdFlight::gap(const std::vector<ns::BoundingBox>& boxes) const {
   double g = std::numeric_limits<double>::infinity();
-  if (!ib) return g;
-  for (int i = 0; i < int(ib->parts()); ++i) {
-    const ns::BoundingBox bb = ib->surface(i, sim_->time()).bounding_box();
+  for (const ns::BoundingBox& bb : boxes)
     for (int a = 0; a < 3; ++a) g = std::min({g, bb.lo(a) - plan_.fine_lo(a), plan_.fine_hi(a) - bb.hi(a)});
-  }
   return g;
 }
 
@@ -280,8 +289,8 @@ void CfdFlight::rebuild(const ns::FineBoxShift& shift) {
   shift_ = shift;
 }
 
-void CfdFlight::maybe_replan() {
-  const double g = gap();
+void CfdFlight::maybe_replan(const std::vector<ns::BoundingBox>& boxes) {
+  const double g = gap(boxes);
   if (!(g < 0.5 * room_)) return;
   const auto t0 = std::chrono::steady_clock::now();
   // The planned swept volume (body axes; the body at rest at O) carried to the body's pose: the box of its corners,
@@ -294,8 +303,7 @@ void CfdFlight::maybe_replan() {
                       k & 4 ? base_plan_.swept_hi.z() : base_plan_.swept_lo.z());
     box.add(b.origin + b.rotation * corner);
   }
-  for (int i = 0; i < sim_->part_count(); ++i) {
-    const ns::BoundingBox bb = sim_->immersed()->surface(i, sim_->time()).bounding_box();
+  for (const ns::BoundingBox& bb : boxes) {
     box.add(bb.lo);
     box.add(bb.hi);
   }
@@ -323,11 +331,11 @@ void CfdFlight::maybe_replan() {
   replans_.push_back(r);
 }
 
-void CfdFlight::check_inside() const {
+void CfdFlight::check_inside(const std::vector<ns::BoundingBox>& boxes) const {
   const ns::ImmersedBoundary* ib = sim_->immersed();
   if (!ib) return;
-  for (int i = 0; i < int(ib->parts()); ++i) {
-    const ns::BoundingBox bb = ib->surface(i, sim_->time()).bounding_box();  // the surface's own extent
+  for (int i = 0; i < int(boxes.size()); ++i) {
+    const ns::BoundingBox& bb = boxes[std::size_t(i)];  // the surface's own extent
     for (int a = 0; a < 3; ++a)
       if (bb.lo(a) < plan_.fine_lo(a) || bb.hi(a) > plan_.fine_hi(a))
         throw BodyLeftGrid(fmt::format(

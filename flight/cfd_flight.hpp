@@ -139,11 +139,15 @@ class CfdFlight {
   // The body state at time t in the current step (from the step's start with its loads held).
   BodyStateVector body_at(double t) const;
   std::vector<ns::PartState> parts_at(double t) const;
-  void check_inside() const;
-  // The parts' smallest distance to a face of the fine box at the current time (m; negative: outside).
-  double gap() const;
+  // The parts' surfaces' extents at the current time (one evaluation of the parts' motion for all).
+  std::vector<ns::BoundingBox> part_boxes() const;
+  void check_inside(const std::vector<ns::BoundingBox>& boxes) const;
+  // The parts' smallest distance to a face of the fine box (m; negative: outside).
+  double gap(const std::vector<ns::BoundingBox>& boxes) const;
   // Re-plans when the parts are closer than room_ / 2 to the fine box (replan_).
-  void maybe_replan();
+  void maybe_replan(const std::vector<ns::BoundingBox>& boxes);
+  // The re-plan's check and the fine box's check after a step or a start.
+  void check_room();
   // A new simulation on the first plan's fine box shifted by `shift` (plan_, shift_ updated; no flow restored).
   void rebuild(const ns::FineBoxShift& shift);
   const FlightDynamics& dyn_;

@@ -796,6 +796,10 @@ TriangleMesh ImmersedBoundary::surface(int part, double t) const {
   return p.mesh.transformed(state(part, t).pose);
 }
 
+TriangleMesh ImmersedBoundary::surface(int part, const PartState& state) const {
+  return impl_->parts.at(std::size_t(part)).mesh.transformed(state.pose);
+}
+
 BoundingBox ImmersedBoundary::bounding_box(int part, double t) const {
   const auto& p = impl_->parts.at(std::size_t(part));
   return transformed_box(p.box, state(part, t).pose, 0);

@@ -110,6 +110,8 @@ class ImmersedBoundary final : public StageHooks {
   PartState state(int part, double t) const;
   // The part's surface at time t in grid axes (for VTK output).
   TriangleMesh surface(int part, double t) const;
+  // The part's surface placed at a given state (no evaluation of the parts' motion).
+  TriangleMesh surface(int part, const PartState& state) const;
   BoundingBox bounding_box(int part, double t) const;
   // The part's lattice level set at world point x and time t (m): signed distance (negative inside) for a
   // closed part, unsigned distance to the membrane's mid-surface for a membrane; capped at a few cell widths.
