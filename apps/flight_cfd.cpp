@@ -131,12 +131,8 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   if (!start.converged)
     throw SolveError(fmt::format("{}: the quasi-steady trim that starts the CFD trim did not converge ({})", c.path,
                                  start.message));
-  // The controller at the quasi-steady trim: an actuator the coupled flight cannot drive is refused before any CFD.
+  // The controller at the quasi-steady trim (its actuators' limits widen the fine box below).
   const ControllerSpec planned = controller_from_case(c, start.kinematics);
-  check_coupled_actuators(planned, c.path, [&](int i) {
-    return c.control.type == "pitch" ? std::string("control.pitch.actuator")
-                                     : fmt::format("control.feedback[{}].actuator", i);
-  });
   std::ostream* log = o.quiet ? nullptr : &std::cout;
   auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
   std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
@@ -319,6 +315,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           if (lo != v.end()) shift.lo[std::size_t(d)] = int(std::lround(lo->second));
           if (hi != v.end()) shift.hi[std::size_t(d)] = int(std::lround(hi->second));
         }
+        // The wings' phase (a flight with the frequency as an actuator; absent before it existed: time x frequency).
+        std::optional<double> phase;
+        if (const auto ph = v.find("phase"); ph != v.end()) phase = ph->second;
         if (const auto rp = ck.header().text.find("replans"); rp != ck.header().text.end()) {
           try {
             f.replans = json::parse(rp->second);
@@ -346,7 +345,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           }
           if (r.step <= s.step) steps.push_back(r);
         }
-        fl.restore(s, x, held, steps, shift);
+        fl.restore(s, x, held, steps, shift, phase);
         f.resumed = true;
         if (!o.quiet)
           fmt::print("  {}: resumed from {} at step {} (t/T = {:.3f})\n", name, ck_path, s.step, s.time / T);
@@ -366,6 +365,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
       for (int i = 0; i < 3; ++i)
         v[fmt::format("F{}", i)] = cur.aero.force(i), v[fmt::format("M{}", i)] = cur.aero.moment(i);
+      v["phase"] = cur.phase;
       for (int d = 0; d < 3; ++d) {
         v[fmt::format("shift_lo{}", d)] = fl.fine_box_shift().lo[std::size_t(d)];
         v[fmt::format("shift_hi{}", d)] = fl.fine_box_shift().hi[std::size_t(d)];

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <tuple>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -118,6 +119,8 @@ CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::Cf
     volume_.push_back(sim_->part_volume(i, &cen));
     centroid_.push_back(cen);
   }
+  if (const auto i = dynamics.actuator_index("frequency_hz")) freq_ = *i;
+  f0_ = dynamics.trimmed().frequency_hz;
   room_ = std::numeric_limits<double>::infinity();
   for (int d = 0; d < 3; ++d)
     room_ = std::min({room_, plan.swept_lo[d] - plan.fine_lo[d], plan.fine_hi[d] - plan.swept_hi[d]});
@@ -149,23 +152,57 @@ Wrench CfdFlight::buoyancy(const BodyStateVector& x) const {
   return w;
 }
 
-BodyStateVector CfdFlight::rhs(double t, const BodyStateVector& x, const Wrench& held) const {
+double CfdFlight::kinematic_time(double t, double psi, const std::vector<double>& cmd) const {
+  if (freq_ < 0) return t;
+  return psi / (f0_ + cmd[std::size_t(freq_)]);
+}
+
+BodyStateVector CfdFlight::rhs(double t, const BodyStateVector& x, double psi, const Wrench& held) const {
   const Wrench b = buoyancy(x);
-  return dyn_.derivative(t, x, command(t, x),
+  const std::vector<double> cmd = command(t, x);
+  return dyn_.derivative(kinematic_time(t, psi, cmd), x, cmd,
                          Wrench{held.force + b.force + offset_.force, held.moment + b.moment + offset_.moment})
       .dx;
 }
 
-BodyStateVector CfdFlight::body_at(double t) const {
-  return ns::integrate_body([this](double s, const BodyStateVector& y) { return rhs(s, y, base_aero_); }, base_time_,
-                            base_x_, t, body_substeps);
+std::pair<BodyStateVector, double> CfdFlight::body_at(double t) const {
+  if (freq_ < 0)
+    return {ns::integrate_body([this](double s, const BodyStateVector& y) { return rhs(s, y, 0, base_aero_); },
+                               base_time_, base_x_, t, body_substeps),
+            0.0};
+  // The body and the phase together (classical Runge-Kutta, as ns::integrate_body): dpsi/dt = f_trim + command_f.
+  using State = Eigen::Matrix<double, 13, 1>;
+  auto f = [this](double s, const State& y) {
+    const BodyStateVector x = y.head<12>();
+    State d;
+    d.head<12>() = rhs(s, x, y(12), base_aero_);
+    d(12) = f0_ + command(s, x)[std::size_t(freq_)];
+    return d;
+  };
+  State y;
+  y.head<12>() = base_x_;
+  y(12) = base_psi_;
+  if (t != base_time_) {
+    const double h = (t - base_time_) / body_substeps;
+    for (int i = 0; i < body_substeps; ++i) {
+      const double ti = base_time_ + i * h;
+      const State k1 = f(ti, y);
+      const State k2 = f(ti + h / 2, y + h / 2 * k1);
+      const State k3 = f(ti + h / 2, y + h / 2 * k2);
+      const State k4 = f(ti + h, y + h * k3);
+      y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    }
+  }
+  return {y.head<12>(), y(12)};
 }
 
 std::vector<ns::PartState> CfdFlight::parts_at(double t) const {
-  const BodyStateVector x = body_at(t);
-  const ns::BodyFrame b = ns::body_frame(x, rhs(t, x, base_aero_));
+  const auto [x, psi] = body_at(t);
+  const std::vector<double> cmd = command(t, x);
+  const ns::BodyFrame b = ns::body_frame(x, rhs(t, x, psi, base_aero_));
   std::vector<ns::PartState> out;
-  for (const ns::PartState& rel : relative_parts(t, command(t, x))) out.push_back(ns::part_in_grid(b, rel));
+  for (const ns::PartState& rel : relative_parts(kinematic_time(t, psi, cmd), cmd))
+    out.push_back(ns::part_in_grid(b, rel));
   return out;
 }
 
@@ -176,18 +213,7 @@ std::vector<ns::PartState> CfdFlight::relative_parts(double t, const std::vector
   return ns::InsectMotion(config, BodyMotion{}).parts(t);
 }
 
-void check_coupled_actuators(const ControllerSpec& c, const std::string& file,
-                             const std::function<std::string(int)>& key) {
-  for (std::size_t i = 0; i < c.terms.size(); ++i)
-    if (c.terms[i].actuator == "frequency_hz")
-      throw InputError(file, key(int(i)),
-                       "the wingbeat frequency is not an actuator of free flight coupled to the Navier-Stokes solver "
-                       "(the immersed wings take the flow time as their kinematic time)",
-                       "a kinematic angle, e.g. \"stroke_plane_deg\"");
-}
-
 void CfdFlight::set_controller(const ControllerSpec& controller, std::function<BodyStateVector(double)> reference) {
-  check_coupled_actuators(controller, "", [](int i) { return fmt::format("control term {}: actuator", i); });
   feedback_ = controller.empty() ? nullptr : std::make_unique<Feedback>(dyn_, controller, std::move(reference));
 }
 
@@ -210,6 +236,7 @@ CfdFlightStep CfdFlight::observe(long step, double cfl) const {
   s.buoyancy = buoyancy(x_);
   s.power = row.wing_power;
   s.command = command(s.time, x_);
+  s.phase = freq_ < 0 ? s.time * f0_ : psi_;
   return s;
 }
 
@@ -218,6 +245,7 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
   x_ = dyn_.held(x0);
   base_time_ = sim_->time();
   base_x_ = x_;
+  psi_ = base_psi_ = base_time_ * f0_;  // the flow state's wings: the trimmed kinematics at its time
   base_aero_ = Wrench{};
   if (feedback_) feedback_->start(base_time_, x_);
   // Set once: the source reads the members, which each step moves on (re-attaching would re-mark the flags).
@@ -228,7 +256,8 @@ void CfdFlight::start(const ns::SimulationState* flow, const BodyStateVector& x0
 }
 
 void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
-                        const std::vector<CfdFlightStep>& past, const ns::FineBoxShift& shift) {
+                        const std::vector<CfdFlightStep>& past, const ns::FineBoxShift& shift,
+                        std::optional<double> phase) {
   if (!(shift == shift_)) rebuild(shift);
   if (feedback_) {
     if (past.empty() || past.back().time != flow.time)
@@ -239,6 +268,7 @@ void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& 
   x_ = dyn_.held(x);
   base_time_ = flow.time;
   base_x_ = x_;
+  psi_ = base_psi_ = phase ? *phase : flow.time * f0_;
   base_aero_ = aero;
   sim_->set_part_source([this](double t) { return parts_at(t); });
   sim_->restore(flow);
@@ -249,9 +279,10 @@ void CfdFlight::restore(const ns::SimulationState& flow, const BodyStateVector& 
 CfdFlightStep CfdFlight::advance() {
   base_time_ = sim_->time();
   base_x_ = x_;
+  base_psi_ = psi_;
   base_aero_ = cur_.aero;
   const ns::StepReport r = sim_->advance();
-  x_ = body_at(r.time);
+  std::tie(x_, psi_) = body_at(r.time);
   if (!x_.allFinite()) throw SolveError(fmt::format("free flight: the body state is not finite at t = {:.6g} s", r.time));
   if (feedback_) feedback_->accept(r.time, x_);
   cur_ = observe(r.step, r.cfl);

@@ -28,12 +28,17 @@
 //    commanded kinematics with O held where the trimmed kinematics put it (as in flight/dynamics.hpp), at every
 //    Runge-Kutta stage, and the body's equations carry the moved wing mass. As in the quasi-steady free flight the
 //    command's own rate of change is not added to the wings' velocities; a command sampled once per wingbeat
-//    (update = "wingbeat") jumps at the wingbeat's start and the wings jump with it. The wingbeat frequency is not
-//    an actuator here (the immersed wings take the flow time as their kinematic time).
+//    (update = "wingbeat") jumps at the wingbeat's start and the wings jump with it. With the wingbeat frequency as
+//    an actuator the wings' phase psi (cycles) is a state integrated with the body, dpsi/dt = f_trim + command_f,
+//    and the parts are those of the commanded kinematics at kinematic time psi / (f_trim + command_f), so the phase
+//    is continuous when the frequency changes (as in flight/free_flight.cpp); without it the kinematic time is the
+//    flow time.
 #pragma once
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 #include "cfd/navier_stokes/free_body.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
@@ -70,13 +75,9 @@ struct CfdFlightStep {
   Wrench buoyancy;   // of the closed parts, body axes, about O
   double power = 0;  // W: the parts' rate of work on the air (grid frame)
   std::vector<double> command;  // actuator offsets from trim (parameter units; one per dynamics actuator)
+  double phase = 0;  // the wings' phase (wingbeats since t = 0 of the flow; time x trimmed frequency unless the
+                     // frequency is an actuator)
 };
-
-// Refuses a feedback term whose actuator the coupled flight cannot drive: the wingbeat frequency (the immersed wings
-// take the flow time as their kinematic time; a frequency command would need the wingbeat phase as a state).
-// InputError naming `file` and key(term index).
-void check_coupled_actuators(const ControllerSpec& c, const std::string& file,
-                             const std::function<std::string(int)>& key);
 
 class CfdFlight {
  public:
@@ -108,9 +109,11 @@ class CfdFlight {
   ns::SimulationState flow_state() const { return sim_->state(); }
   // past: the flight's steps from its start to the restored one (their times and states; only with a controller:
   // its sensed history and filter states are replayed from them, so the continuation is exact). shift: the fine
-  // box's shift the state was computed on (fine_box_shift() when it was taken).
+  // box's shift the state was computed on (fine_box_shift() when it was taken); phase: the wings' phase then
+  // (current().phase; needed only with the frequency as an actuator, default: time x trimmed frequency).
   void restore(const ns::SimulationState& flow, const BodyStateVector& x, const Wrench& aero,
-               const std::vector<CfdFlightStep>& past = {}, const ns::FineBoxShift& shift = {});
+               const std::vector<CfdFlightStep>& past = {}, const ns::FineBoxShift& shift = {},
+               std::optional<double> phase = std::nullopt);
 
   // Re-plans the fine box around the body when a part has used half its room (see the coupling notes above); off
   // by default. Call before start or restore.
@@ -125,7 +128,7 @@ class CfdFlight {
 
   // Closes the loop (before start or restore): the controller's actuators must be the dynamics' (in its order or
   // not); reference(s) is the body state the sensors compare with at flight time s = t - t_start (s >= 0; before
-  // the start the sensors see no deviation). Throws InputError for the frequency as an actuator.
+  // the start the sensors see no deviation).
   void set_controller(const ControllerSpec& controller, std::function<BodyStateVector(double)> reference);
   bool closed_loop() const;
   // The command at time t with the body at x (actuator offsets from trim, parameter units).
@@ -135,9 +138,12 @@ class CfdFlight {
   class Feedback;
   CfdFlightStep observe(long step, double cfl) const;
   Wrench buoyancy(const BodyStateVector& x) const;
-  BodyStateVector rhs(double t, const BodyStateVector& x, const Wrench& held) const;
-  // The body state at time t in the current step (from the step's start with its loads held).
-  BodyStateVector body_at(double t) const;
+  // The body's equations with the wings at phase psi (used only with the frequency as an actuator).
+  BodyStateVector rhs(double t, const BodyStateVector& x, double psi, const Wrench& held) const;
+  // The body state and the wings' phase at time t in the current step (from the step's start with its loads held).
+  std::pair<BodyStateVector, double> body_at(double t) const;
+  // The kinematic time of the wings at time t, phase psi, under command cmd.
+  double kinematic_time(double t, double psi, const std::vector<double>& cmd) const;
   std::vector<ns::PartState> parts_at(double t) const;
   // The parts' surfaces' extents at the current time (one evaluation of the parts' motion for all).
   std::vector<ns::BoundingBox> part_boxes() const;
@@ -162,6 +168,9 @@ class CfdFlight {
   std::vector<Vec3> centroid_;
   double rho_ = 0, g_ = 0;
   ns::CfdPlan plan_;
+  int freq_ = -1;    // the frequency's index among the dynamics' actuators (-1: not an actuator)
+  double f0_ = 0;    // the trimmed frequency (Hz)
+  double psi_ = 0, base_psi_ = 0;  // the wings' phase (cycles) now and at the step's start
   BodyStateVector x_ = BodyStateVector::Zero();
   CfdFlightStep cur_;
   // The current step's start: time, body state, fluid wrench held over the step.

@@ -149,10 +149,6 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"state-feedback\"") +
                      "\n[[control.feedback]]\nstate = \"theta\"\nactuator = \"stroke_plane_deg\"\ngain = 1.0\n",
                  "fly", "control.feedback[0].actuator");  // no [[control.actuator]] with its limits
-  // Under the Navier-Stokes model the wingbeat frequency is no actuator: refused before any run.
-  expect_refused(replaced(replaced(h, "model = \"quasi-steady\"", "model = \"cfd\""),
-                          "actuator = \"stroke_plane_deg\"", "actuator = \"frequency_hz\""),
-                 "fly", "control.pitch.actuator");
   expect_refused(replaced(h, "start = \"periodic-orbit\"", "start = \"periodic-orbit\"\ncfd_residual = \"drop\""), "fly",
                  "flight.cfd_residual");
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
@@ -357,6 +353,41 @@ TEST(FlyCli, CfdFlightReplansTheFineBoxAndResumesOnTheNewGrid) {
                                  fresh_dir("fly_cfd_replan_bad"));
   EXPECT_EQ(bad.status, 2) << bad.out << bad.err;
   EXPECT_NE(bad.err.find("flight.cfd_replan"), std::string::npos) << bad.err;
+}
+
+// The wingbeat frequency as the coupled flight's actuator (a pitch controller on frequency_hz): it runs, its command
+// moves, and a flight extended from its checkpoint (whose header keeps the wings' integrated phase) equals the
+// straight one byte for byte.
+TEST(FlyCli, CfdFrequencyControlResumesExactly) {
+  const std::string text = tiny_cfd_case_text() +
+                           "\n[flight]\ndof = \"longitudinal\"\nstart = \"rest\"\nsamples_per_wingbeat = 20\n"
+                           "[flight.perturbation]\nq_deg_s = 50.0\n"
+                           "\n[control]\ntype = \"pitch\"\n[control.pitch]\nactuator = \"frequency_hz\"\n"
+                           "pitch_gain = 0.5\nrate_gain_s = 0.01\npitch_latency_s = 0.001\nrate_latency_s = 0.001\n"
+                           "limit_deg = 5\n";
+  const std::string path = testing::write_temp("fly_cfd_frequency.toml", text);
+  const std::string a = fresh_dir("fly_cfd_freq_a"), b = fresh_dir("fly_cfd_freq_b");
+  const CliResult ra = flapstab("fly " + path + " -o " + a + " --wingbeats 0.2");
+  ASSERT_EQ(ra.status, 0) << ra.out << ra.err;
+  EXPECT_NE(ra.out.find("pitch feedback on frequency_hz"), std::string::npos) << ra.out;
+  std::ifstream st(fs::path(a) / "steps.csv");
+  std::string header, line;
+  std::getline(st, header);
+  ASSERT_NE(header.find(",command_frequency_hz"), std::string::npos) << header;
+  double largest = 0;
+  while (std::getline(st, line)) largest = std::max(largest, std::abs(std::stod(line.substr(line.rfind(',') + 1))));
+  EXPECT_GT(largest, 0.01);  // Hz
+  ASSERT_EQ(flapstab("fly " + path + " -o " + b + " --wingbeats 0.1").status, 0);
+  const CliResult rb = flapstab("fly " + path + " -o " + b + " --wingbeats 0.2");
+  ASSERT_EQ(rb.status, 0) << rb.out << rb.err;
+  EXPECT_NE(rb.out.find("resumed from"), std::string::npos) << rb.out;
+  auto slurp = [](const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
 }
 
 // [flight] cfd_reference = "closed-loop": the reference flight flies under the controller too, and both flights'

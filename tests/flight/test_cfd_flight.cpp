@@ -355,6 +355,7 @@ TEST(FreeBody, WrenchOnBodyIsAboutOInBodyAxes) {
 
 }  // namespace
 
+#include "cfd/navier_stokes/insect_motion.hpp"
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "common/case_text.hpp"
@@ -757,6 +758,71 @@ TEST(CfdFlight, ClosedLoopRestartContinuesBitForBit) {
   EXPECT_EQ(a.current().aero.force.z(), r.current().aero.force.z());
   // Without its past a closed-loop flight cannot continue.
   EXPECT_THROW(rig.flight(ctrl, no_deviation)->restore(b.flow_state(), b.current().x, b.current().aero), SolveError);
+}
+
+// The wingbeat frequency as an actuator: the wings' phase is integrated with the body. An immovable body at O whose
+// sensors see a constant pitch deviation (the reference pitched by -theta0) after a latency of 10.1 steps: the
+// frequency is the trimmed one until then and f_trim + u after, so the phase is f_trim L + (f_trim + u)(t - L) (the
+// Runge-Kutta sub-step that holds the jump errs by at most u dt / 6, reached with the jump at its midpoint: the
+// tolerance), where the flow time as the
+// kinematic time (the earlier treatment) would put it at (f_trim + u) t, u L further. The immersed parts are the
+// commanded kinematics' at kinematic time phase / (f_trim + u) (to rounding).
+TEST(CfdFlight, FrequencyCommandAdvancesTheWingsPhase) {
+  const StrokePlaneRig rig("cfd_flight_frequency.toml", true, "frequency_hz");
+  const double dt = rig.dt, L = 10.1 * dt, theta0 = 0.05, gain = 40;  // Hz per rad: u = -2 Hz
+  const ControllerSpec ctrl = StrokePlaneRig::controller({{"theta", "frequency_hz", gain, L, 0}});
+  BodyStateVector ref = BodyStateVector::Zero();
+  ref(10) = -theta0;
+  const auto fl = rig.flight(ctrl, [ref](double) { return ref; });
+  fl->start(nullptr, BodyStateVector::Zero());
+  for (int k = 0; k < 30; ++k) fl->advance();
+  const double f0 = rig.c.kinematics.frequency_hz, u = -gain * theta0, t = fl->current().time;
+  const double expected = f0 * L + (f0 + u) * (t - L), phase = fl->current().phase;
+  ASSERT_EQ(fl->current().command.size(), 1u);
+  EXPECT_NEAR(fl->current().command[0], u, 1e-9);
+  std::printf("  frequency command %.3f Hz after %.2f steps: phase %.12f, expected %.12f (flow time x f: %.12f)\n", u,
+              L / dt, phase, expected, (f0 + u) * t);
+  EXPECT_NEAR(phase, expected, std::abs(u) * dt / 6);
+  EXPECT_GT(std::abs(phase - (f0 + u) * t), 20 * std::abs(u) * dt / 6);
+  // The parts: the commanded kinematics at kinematic time phase / (f0 + u), the body at rest at O.
+  const Kinematics kin = rig.dyn->kinematics({u});
+  const Configuration config(rig.c.insect, kin, rig.dyn->configuration().reference_point());
+  const auto want = ns::InsectMotion(config, BodyMotion{}).parts(phase / (f0 + u));
+  const auto got = fl->simulation().part_states();
+  ASSERT_EQ(want.size(), got.size());
+  double pose = 0, vel = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    pose = std::max({pose, double((got[i].pose.rotation - want[i].pose.rotation).norm()),
+                     double((got[i].pose.translation - want[i].pose.translation).norm()) / rig.c.insect.wing.length});
+    vel = std::max(vel, (got[i].velocity.omega - want[i].velocity.omega).norm());
+  }
+  std::printf("  parts against the commanded kinematics at the integrated phase: pose %.2e, angular velocity %.2e "
+              "rad/s\n", pose, vel);
+  EXPECT_LT(pose, 1e-10);
+  EXPECT_LT(vel, 1e-8);
+}
+
+// A flight with the frequency as an actuator continues bit for bit from a checkpoint that keeps the wings' phase.
+TEST(CfdFlight, FrequencyControlRestartContinuesBitForBit) {
+  const StrokePlaneRig rig("cfd_flight_restart_freq.toml", false, "frequency_hz");
+  const ControllerSpec ctrl = StrokePlaneRig::controller({{"theta", "frequency_hz", 200, 2.5 * rig.dt, 0}});
+  BodyStateVector x0 = BodyStateVector::Zero();
+  x0(7) = 2.0;
+  const auto ap = rig.flight(ctrl, no_deviation), bp = rig.flight(ctrl, no_deviation), rp = rig.flight(ctrl, no_deviation);
+  CfdFlight &a = *ap, &b = *bp, &r = *rp;
+  a.start(nullptr, x0);
+  for (int k = 0; k < 20; ++k) a.advance();
+  b.start(nullptr, x0);
+  std::vector<CfdFlightStep> past{b.current()};
+  for (int k = 0; k < 10; ++k) past.push_back(b.advance());
+  r.restore(b.flow_state(), b.current().x, b.current().aero, past, {}, b.current().phase);
+  for (int k = 0; k < 10; ++k) r.advance();
+  std::printf("  frequency-control restart: phase %.17g straight, %.17g continued (flow time x f %.17g)\n",
+              a.current().phase, r.current().phase, a.current().time * rig.c.kinematics.frequency_hz);
+  EXPECT_GT(std::abs(a.current().phase - a.current().time * rig.c.kinematics.frequency_hz), 1e-6);  // it acted
+  EXPECT_EQ(a.current().phase, r.current().phase);
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(a.current().x(i), r.current().x(i)) << i;
+  EXPECT_EQ(a.current().aero.force.z(), r.current().aero.force.z());
 }
 
 // The control authority of the stroke-plane tilt on the CFD model against the quasi-steady one: the shipped
