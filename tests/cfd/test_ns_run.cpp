@@ -11,6 +11,7 @@
 #include <cstring>
 #include <sstream>
 
+#include <fmt/format.h>
 #include "cfd/navier_stokes/insect_motion.hpp"
 #include <hdf5.h>
 #include "cfd/navier_stokes/io_hdf5.hpp"
@@ -253,6 +254,28 @@ TEST(CfdPlan, TransferredStateReproducesLinearFieldsAndStillAirOutside) {
       }
   const Grid other(Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false));
   EXPECT_THROW(transfer_state(s, other, from), std::invalid_argument);  // the state is not of `other`
+}
+
+// A field series whose grid changes (a free flight's re-planned fine box): the writer starts again on the new grid
+// and the series lists both files, each with its own dimensions.
+TEST(CfdPlan, FieldSeriesFollowsAReplannedGrid) {
+  const Case c = cfd_case("series.toml", tiny_keys);
+  const CfdPlan p = plan_cfd(c, c.kinematics, BodyMotion{});
+  const Vec3 shift_by = Vec3::Constant(0.1 * c.insect.wing.length);
+  const CfdPlan q = shifted_plan(p, fine_box_shift(p, p.fine_lo + shift_by, p.fine_hi + shift_by));
+  Simulation a(c, c.kinematics, BodyMotion{}, p), b(c, c.kinematics, BodyMotion{}, q);
+  ASSERT_NE(a.grid().shape(), b.grid().shape());
+  const std::string dir = fresh_dir("series");
+  FieldOutput out(dir, 1, FieldPrecision::float32);
+  out.write(a);
+  b.advance();
+  out.write(b);
+  const std::string xmf = read_text(dir + "/fields.xmf");
+  for (const Simulation* sim : {&a, &b}) {
+    const Shape sh = sim->grid().shape();
+    const std::string dims = fmt::format("Dimensions=\"{} {} {}\"", sh.nz + 1, sh.ny + 1, sh.nx + 1);
+    EXPECT_NE(xmf.find(dims), std::string::npos) << dims << "\n" << xmf.substr(0, 2000);
+  }
 }
 
 TEST(CfdPlan, ReynoldsOverridesTheViscosity) {
