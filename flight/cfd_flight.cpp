@@ -179,20 +179,10 @@ std::pair<BodyStateVector, double> CfdFlight::body_at(double t) const {
     d(12) = f0_ + command(s, x)[std::size_t(freq_)];
     return d;
   };
-  State y;
-  y.head<12>() = base_x_;
-  y(12) = base_psi_;
-  if (t != base_time_) {
-    const double h = (t - base_time_) / body_substeps;
-    for (int i = 0; i < body_substeps; ++i) {
-      const double ti = base_time_ + i * h;
-      const State k1 = f(ti, y);
-      const State k2 = f(ti + h / 2, y + h / 2 * k1);
-      const State k3 = f(ti + h / 2, y + h / 2 * k2);
-      const State k4 = f(ti + h, y + h * k3);
-      y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
-    }
-  }
+  State y0;
+  y0.head<12>() = base_x_;
+  y0(12) = base_psi_;
+  const State y = ns::runge_kutta(f, base_time_, y0, t, body_substeps);
   return {y.head<12>(), y(12)};
 }
 

@@ -40,18 +40,7 @@ Wrench wrench_on_body(const BodyFrame& b, const Vec3& force_grid, const Vec3& mo
 }
 
 BodyStateVector integrate_body(const BodyRhs& rhs, double t0, const BodyStateVector& x0, double t, int substeps) {
-  if (t == t0 || substeps < 1) return x0;
-  const double h = (t - t0) / substeps;
-  BodyStateVector x = x0;
-  for (int i = 0; i < substeps; ++i) {
-    const double ti = t0 + i * h;
-    const BodyStateVector k1 = rhs(ti, x);
-    const BodyStateVector k2 = rhs(ti + h / 2, x + h / 2 * k1);
-    const BodyStateVector k3 = rhs(ti + h / 2, x + h / 2 * k2);
-    const BodyStateVector k4 = rhs(ti + h, x + h * k3);
-    x += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
-  }
-  return x;
+  return runge_kutta(rhs, t0, x0, t, substeps);
 }
 
 }  // namespace flapstab::ns

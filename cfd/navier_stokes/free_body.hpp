@@ -38,5 +38,21 @@ Wrench wrench_on_body(const BodyFrame& b, const Vec3& force_grid, const Vec3& mo
 using BodyRhs = std::function<BodyStateVector(double t, const BodyStateVector& x)>;
 // Classical Runge-Kutta from (t0, x0) to t in `substeps` equal steps (t < t0 allowed only as t = t0).
 BodyStateVector integrate_body(const BodyRhs& rhs, double t0, const BodyStateVector& x0, double t, int substeps);
+// The same for any state with vector arithmetic (an Eigen vector: the body state with more states beside it).
+template <class State, class Rhs>
+State runge_kutta(const Rhs& rhs, double t0, const State& x0, double t, int substeps) {
+  if (t == t0 || substeps < 1) return x0;
+  const double h = (t - t0) / substeps;
+  State x = x0;
+  for (int i = 0; i < substeps; ++i) {
+    const double ti = t0 + i * h;
+    const State k1 = rhs(ti, x);
+    const State k2 = rhs(ti + h / 2, State(x + h / 2 * k1));
+    const State k3 = rhs(ti + h / 2, State(x + h / 2 * k2));
+    const State k4 = rhs(ti + h, State(x + h * k3));
+    x += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+  }
+  return x;
+}
 
 }  // namespace flapstab::ns

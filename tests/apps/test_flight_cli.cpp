@@ -21,15 +21,17 @@ struct CliResult {
   std::string out, err;
 };
 
+// A file's whole text ("" when it cannot be read).
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 CliResult flapstab(const std::string& args) {
   const std::string o = testing::write_temp("fly_stdout.txt", ""), e = testing::write_temp("fly_stderr.txt", "");
   const int rc = std::system((std::string(FLAPSTAB_BINARY) + " " + args + " > " + o + " 2> " + e).c_str());
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(o), slurp(e)};
 }
 
@@ -263,12 +265,6 @@ TEST(FlyCli, CfdClosedLoopWritesItsFilesAndResumesExactly) {
   ASSERT_EQ(rb2.status, 0) << rb2.err;
   EXPECT_NE(rb2.out.find("resumed from"), std::string::npos) << rb2.out;
   EXPECT_NE(rb2.out.find("hover state reused"), std::string::npos) << rb2.out;
-  auto slurp = [](const fs::path& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
   const std::string ta = slurp(fs::path(a) / "trajectory.csv"), tb = slurp(fs::path(b) / "trajectory.csv");
   EXPECT_GT(ta.size(), 1000u);
   EXPECT_EQ(ta, tb);
@@ -341,12 +337,6 @@ TEST(FlyCli, CfdFlightReplansTheFineBoxAndResumesOnTheNewGrid) {
   for (auto* list : {&ea, &eb})
     for (auto& ev : *list) ev.erase("seconds");
   EXPECT_EQ(ea, eb);
-  auto slurp = [](const fs::path& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
   EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
   const std::string bad_text = replaced(text, "start = \"rest\"", "start = \"rest\"\ncfd_replan = \"yes\"");
   const CliResult bad = flapstab("fly " + testing::write_temp("fly_cfd_replan_bad.toml", bad_text) + " -o " +
@@ -381,12 +371,6 @@ TEST(FlyCli, CfdFrequencyControlResumesExactly) {
   const CliResult rb = flapstab("fly " + path + " -o " + b + " --wingbeats 0.2");
   ASSERT_EQ(rb.status, 0) << rb.out << rb.err;
   EXPECT_NE(rb.out.find("resumed from"), std::string::npos) << rb.out;
-  auto slurp = [](const fs::path& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
   EXPECT_EQ(slurp(fs::path(a) / "steps.csv"), slurp(fs::path(b) / "steps.csv"));
 }
 
