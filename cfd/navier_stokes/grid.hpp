@@ -1,5 +1,6 @@
 // Non-uniform Cartesian grid: per-direction face coordinates and the metric factors of the MAC operators.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <vector>
 #include "cfd/navier_stokes/field.hpp"
@@ -46,6 +47,26 @@ class Axis {
   bool can_coarsen() const { return n % 2 == 0; }
   Axis coarsened() const;    // every other face
 };
+
+// Where x falls on coordinates c[lo..hi] (increasing): index i with c[i] <= x < c[i+1], clamped to [lo, hi - 1], and
+// the linear weight of c[i+1], clamped to [0, 1] (so x outside the range takes the end value).
+inline void bracket(const std::vector<double>& c, int lo, int hi, double x, int& i, double& w) {
+  const auto first = c.begin() + lo, last = c.begin() + hi + 1;
+  i = int(std::upper_bound(first, last, x) - c.begin()) - 1;
+  i = std::clamp(i, lo, hi - 1);
+  w = std::clamp((x - c[std::size_t(i)]) / (c[std::size_t(i) + 1] - c[std::size_t(i)]), 0.0, 1.0);
+}
+
+// The trilinear combination of f's values at (I, J, K) ... (I + 1, J + 1, K + 1), W the weights of the upper ones.
+inline double trilinear(const Field& f, const int I[3], const double W[3]) {
+  double v = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    const double w = (dx ? W[0] : 1 - W[0]) * (dy ? W[1] : 1 - W[1]) * (dz ? W[2] : 1 - W[2]);
+    if (w != 0) v += w * f(I[0] + dx, I[1] + dy, I[2] + dz);
+  }
+  return v;
+}
 
 // Three axes; the tensor product of their cells is the grid.
 struct Grid {

@@ -17,14 +17,6 @@ namespace {
 // ---------------------------------------------------------------------------------------------------------------
 // Grid sampling helpers (non-uniform axes: binary search on the coordinates).
 
-// Index i with c[i] <= x < c[i+1], clamped to [lo, hi - 1], and the linear weight of c[i+1] (clamped to [0, 1]).
-inline void bracket(const std::vector<double>& c, int lo, int hi, double x, int& i, double& w) {
-  const auto first = c.begin() + lo, last = c.begin() + hi + 1;
-  i = int(std::upper_bound(first, last, x) - c.begin()) - 1;
-  i = std::clamp(i, lo, hi - 1);
-  w = std::clamp((x - c[std::size_t(i)]) / (c[std::size_t(i) + 1] - c[std::size_t(i)]), 0.0, 1.0);
-}
-
 // Trilinear interpolation of a field stored at the points of component d (d = -1: cell centres), padded
 // indices 0..n+1 (ghosts carry the box conditions).
 double sample(const Grid& g, const Field& f, int d, const Vec3& x) {
@@ -37,13 +29,7 @@ double sample(const Grid& g, const Field& f, int d, const Vec3& x) {
     else
       bracket(ax.xc, 0, ax.n + 1, x[a], I[a], W[a]);  // centres with the ghost layer
   }
-  double v = 0;
-  for (int c = 0; c < 8; ++c) {
-    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
-    const double w = (dx ? W[0] : 1 - W[0]) * (dy ? W[1] : 1 - W[1]) * (dz ? W[2] : 1 - W[2]);
-    if (w != 0) v += w * f(I[0] + dx, I[1] + dy, I[2] + dz);
-  }
-  return v;
+  return trilinear(f, I, W);
 }
 
 // Largest width of the cell containing x (m): the local grid spacing h.

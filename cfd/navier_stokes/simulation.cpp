@@ -315,55 +315,46 @@ SurfacePressure Simulation::surface_pressure(int part) const {
 
 namespace {
 
-// Where coordinate x falls on a lattice c[first..last] (increasing): between c[i] and c[i + 1] with weight w on
-// c[i + 1]; clamped to the end points outside it. outside: x lies beyond the domain [lo, hi] (to rounding).
-struct Bracket {
-  int i = 0;
-  double w = 0;
-  bool outside = false;
-};
-
-Bracket bracket(const std::vector<double>& c, int first, int last, double x, double lo, double hi) {
-  Bracket b;
-  const double tol = 1e-9 * (hi - lo);
-  b.outside = x < lo - tol || x > hi + tol;
-  if (x <= c[std::size_t(first)]) return {first, 0.0, b.outside};
-  if (x >= c[std::size_t(last)]) return {last - 1, 1.0, b.outside};
-  const auto it = std::upper_bound(c.begin() + first, c.begin() + last + 1, x);  // c[i] <= x < c[i + 1]
-  b.i = int(it - c.begin()) - 1;
-  b.w = (x - c[std::size_t(b.i)]) / (c[std::size_t(b.i) + 1] - c[std::size_t(b.i)]);
-  return b;
-}
-
-// One field on the lattice of component d (d = -1: cell centres) of grid `from`, at the same lattice of `to`.
+// One field on the lattice of component d (d = -1: cell centres) of grid `from`, at the same lattice of `to`:
+// trilinear on the old lattice's interior points (faces 1..n+1 along d, centres 1..n across; bracket clamps to
+// them), zero where the point lies beyond the old domain (to rounding).
 void transfer_field(const Field& src, const Grid& from, Field& dst, const Grid& to, int d) {
-  std::array<std::vector<Bracket>, 3> br;
+  struct Where {
+    int i = 0;
+    double w = 0;
+    bool outside = false;
+  };
+  std::array<std::vector<Where>, 3> at;
   for (int a = 0; a < 3; ++a) {
     const Axis& f = from.axis[std::size_t(a)];
     const Axis& t = to.axis[std::size_t(a)];
-    const bool face = a == d;
-    for (int i = 0; i <= t.n + 1; ++i)
-      br[std::size_t(a)].push_back(face ? bracket(f.xf, 1, f.n + 1, t.xf[std::size_t(i)], f.lo, f.hi)
-                                        : bracket(f.xc, 1, f.n, t.xc[std::size_t(i)], f.lo, f.hi));
+    const double tol = 1e-9 * (f.hi - f.lo);
+    for (int i = 0; i <= t.n + 1; ++i) {
+      Where p;
+      const double x = a == d ? t.xf[std::size_t(i)] : t.xc[std::size_t(i)];
+      if (a == d)
+        bracket(f.xf, 1, f.n + 1, x, p.i, p.w);
+      else
+        bracket(f.xc, 1, f.n, x, p.i, p.w);
+      p.outside = x < f.lo - tol || x > f.hi + tol;
+      at[std::size_t(a)].push_back(p);
+    }
   }
   const Shape sh = dst.shape();
 #pragma omp parallel for schedule(static) if (threaded(sh))
   for (int k = 0; k <= sh.nz + 1; ++k)
     for (int j = 0; j <= sh.ny + 1; ++j)
       for (int i = 0; i <= sh.nx + 1; ++i) {
-        const Bracket& bx = br[0][std::size_t(i)];
-        const Bracket& by = br[1][std::size_t(j)];
-        const Bracket& bz = br[2][std::size_t(k)];
-        if (bx.outside || by.outside || bz.outside) {
+        const Where& px = at[0][std::size_t(i)];
+        const Where& py = at[1][std::size_t(j)];
+        const Where& pz = at[2][std::size_t(k)];
+        if (px.outside || py.outside || pz.outside) {
           dst(i, j, k) = 0;
           continue;
         }
-        double v = 0;
-        for (int c = 0; c < 8; ++c) {
-          const double w = (c & 1 ? bx.w : 1 - bx.w) * (c & 2 ? by.w : 1 - by.w) * (c & 4 ? bz.w : 1 - bz.w);
-          if (w != 0) v += w * src(bx.i + (c & 1), by.i + (c & 2 ? 1 : 0), bz.i + (c & 4 ? 1 : 0));
-        }
-        dst(i, j, k) = real(v);
+        const int I[3] = {px.i, py.i, pz.i};
+        const double W[3] = {px.w, py.w, pz.w};
+        dst(i, j, k) = real(trilinear(src, I, W));
       }
 }
 

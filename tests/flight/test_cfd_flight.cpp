@@ -600,6 +600,17 @@ struct StrokePlaneRig {
     fl->set_controller(ctrl, std::move(reference));
     return fl;
   }
+  // Flies `a` 20 steps from x0 and `b` 10, restores `r` from b's state with its past steps and its wings' phase, and
+  // flies r 10 more: an exact continuation leaves r equal to a.
+  static void fly_split(CfdFlight& a, CfdFlight& b, CfdFlight& r, const BodyStateVector& x0) {
+    a.start(nullptr, x0);
+    for (int k = 0; k < 20; ++k) a.advance();
+    b.start(nullptr, x0);
+    std::vector<CfdFlightStep> past{b.current()};
+    for (int k = 0; k < 10; ++k) past.push_back(b.advance());
+    r.restore(b.flow_state(), b.current().x, b.current().aero, past, {}, b.current().phase);
+    for (int k = 0; k < 10; ++k) r.advance();
+  }
 };
 const auto no_deviation = [](double) { return BodyStateVector::Zero().eval(); };
 
@@ -743,13 +754,7 @@ TEST(CfdFlight, ClosedLoopRestartContinuesBitForBit) {
   x0(7) = 2.0;
   const auto ap = rig.flight(ctrl, no_deviation), bp = rig.flight(ctrl, no_deviation), rp = rig.flight(ctrl, no_deviation);
   CfdFlight &a = *ap, &b = *bp, &r = *rp;
-  a.start(nullptr, x0);
-  for (int k = 0; k < 20; ++k) a.advance();
-  b.start(nullptr, x0);
-  std::vector<CfdFlightStep> past{b.current()};
-  for (int k = 0; k < 10; ++k) past.push_back(b.advance());
-  r.restore(b.flow_state(), b.current().x, b.current().aero, past);
-  for (int k = 0; k < 10; ++k) r.advance();
+  StrokePlaneRig::fly_split(a, b, r, x0);
   std::printf("  closed-loop restart: theta %.17g straight, %.17g continued; command %.17g, %.17g\n",
               a.current().x(10), r.current().x(10), a.current().command[0], r.current().command[0]);
   EXPECT_GT(std::abs(a.current().command[0]), 1e-3);  // the loop did act
@@ -810,13 +815,7 @@ TEST(CfdFlight, FrequencyControlRestartContinuesBitForBit) {
   x0(7) = 2.0;
   const auto ap = rig.flight(ctrl, no_deviation), bp = rig.flight(ctrl, no_deviation), rp = rig.flight(ctrl, no_deviation);
   CfdFlight &a = *ap, &b = *bp, &r = *rp;
-  a.start(nullptr, x0);
-  for (int k = 0; k < 20; ++k) a.advance();
-  b.start(nullptr, x0);
-  std::vector<CfdFlightStep> past{b.current()};
-  for (int k = 0; k < 10; ++k) past.push_back(b.advance());
-  r.restore(b.flow_state(), b.current().x, b.current().aero, past, {}, b.current().phase);
-  for (int k = 0; k < 10; ++k) r.advance();
+  StrokePlaneRig::fly_split(a, b, r, x0);
   std::printf("  frequency-control restart: phase %.17g straight, %.17g continued (flow time x f %.17g)\n",
               a.current().phase, r.current().phase, a.current().time * rig.c.kinematics.frequency_hz);
   EXPECT_GT(std::abs(a.current().phase - a.current().time * rig.c.kinematics.frequency_hz), 1e-6);  // it acted
