@@ -564,6 +564,11 @@ CfdSettings parse_cfd(Section s) {
   d.above_R = margin("above_R", d.above_R);
   d.below_R = margin("below_R", d.below_R);
   d.fine_margin_R = margin("fine_margin_R", d.fine_margin_R);
+  d.sponge_R = margin("sponge_R", d.sponge_R);
+  d.sponge_rate = s.number_or("sponge_rate", d.sponge_rate, "a relaxation rate at the face, per wingbeat, in (0, 1000]");
+  if (!(d.sponge_rate > 0 && d.sponge_rate <= 1000))
+    s.fail("sponge_rate", fmt::format("out of range: {:.6g}", d.sponge_rate),
+           "a relaxation rate at the face, per wingbeat, in (0, 1000]");
   if (s.has("cells_per_chord") && s.has("cells_per_wing_length"))
     s.fail("cells_per_wing_length", "given together with 'cells_per_chord'", "one of the two");
   auto resolution = [&](const char* k, double dflt) {
@@ -709,6 +714,11 @@ Case load_case(const std::string& path) {
     throw InputError(path, "aero.cfd.fpm", "force partitioning splits the loads of a CFD run, but [aero] model is \"" +
                                                c.aero.model + "\"",
                      "[aero] model = \"cfd\" (or remove [aero.cfd.fpm])");
+  if (c.aero.cfd.fpm.enabled && c.aero.cfd.sponge_R > 0)
+    throw InputError(path, "aero.cfd.sponge_R",
+                     fmt::format("{:.6g} with [aero.cfd.fpm]: force partitioning does not account for the sponge "
+                                 "layer's relaxation force yet", c.aero.cfd.sponge_R),
+                     "sponge_R = 0 for a partitioned run (or remove [aero.cfd.fpm])");
   if (c.aero.model == "cfd") check_cfd_geometry(c.insect, path, "aero.model");
   // The hind pair's parts exist only in a four-winged insect's geometry.
   if (!c.insect.hind_wing)

@@ -52,6 +52,11 @@ struct CfdSettings {
   double above_R = 3.0;       // above (-z)
   double below_R = 5.0;       // below (+z), where the downwash leaves through the outflow face
   double fine_margin_R = 0.1; // uniform fine box = swept volume of body and wings over the run + this margin
+  // Sponge layer: within sponge_R wing lengths of every face the flow is relaxed towards the far field (-V, or
+  // -V - Omega x r on a turning grid) at a rate growing as the square of the depth to sponge_rate at the face (per
+  // wingbeat: sigma = sponge_rate f). 0: none. It must stay outside the fine box (sponge_R <= every margin above).
+  double sponge_R = 0;
+  double sponge_rate = 10;
   double cells_per_chord = 16;      // fine spacing h = mean chord / this ...
   double cells_per_wing_length = 0; // ... or, when > 0, h = R / this (the two are exclusive)
   double stretch_ratio = 1.05;      // geometric growth of the cell widths outside the fine box

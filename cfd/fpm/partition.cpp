@@ -214,6 +214,9 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   if (!geometry_) throw std::logic_error("force partitioning: partition() before update()");
   if (solver.options().frame_rate.squaredNorm() > 0)
     throw std::invalid_argument("force partitioning needs an inertial grid frame (this run's grid turns with the body)");
+  if (solver.options().sponge.active())
+    throw std::invalid_argument("force partitioning does not account for a sponge layer's relaxation force yet: set "
+                                "[aero.cfd] sponge_R = 0 for a partitioned run");
   const Grid& g = *grid_;
   const FluidGeometry& o = *geometry_;
   const Shape s = g.shape();

@@ -297,6 +297,22 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
     a.multiple_of = 8;
     p.axes.push_back(a);
   }
+  // The sponge layer stays in the stretched cells: its inner edge never inside the fine box.
+  if (s.sponge_R > 0) {
+    int worst = 0;
+    for (int f = 1; f < 6; ++f)
+      if ((f % 2 ? hi_margin : lo_margin)[f / 2] < (worst % 2 ? hi_margin : lo_margin)[worst / 2]) worst = f;
+    const double room = (worst % 2 ? hi_margin : lo_margin)[worst / 2];
+    if (s.sponge_R > room)
+      throw InputError(file, "aero.cfd.sponge_R",
+                       fmt::format("{:.6g} wing lengths, more than the {:.6g} between the fine box and the domain's {}{} "
+                                   "face ({}): the layer would damp the flow around the insect",
+                                   s.sponge_R, room, "xyz"[worst / 2], worst % 2 ? '+' : '-',
+                                   (worst % 2 ? hi_key : lo_key)[worst / 2]),
+                       fmt::format("a width of at most {:.6g} (or larger margins)", room));
+    p.sponge_width = s.sponge_R * R;
+    p.sponge_rate = s.sponge_rate / p.period;
+  }
   // Largest far-field speed over the planned motions (|V| plus |Omega| times the farthest swept point).
   for (const BodyMotion& motion : motions) {
     double r = 0;

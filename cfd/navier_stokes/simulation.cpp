@@ -62,6 +62,11 @@ SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const Bo
   so.frame_rate = m.rate;
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
+  if (plan.sponge_width > 0) {
+    so.sponge.width.fill(plan.sponge_width);
+    so.sponge.rate = plan.sponge_rate;
+    so.sponge.velocity = -m.velocity;  // with so.frame_rate: the far field -V - Omega x r the faces prescribe
+  }
   if (s.pressure_solver == "hypre") {
     if (!hypre_available())
       throw InputError(path, "aero.cfd.pressure_solver", "\"hypre\", but this flapstab was built without hypre",

@@ -27,6 +27,59 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
   if (opt_.cfl > std::sqrt(3.0) || opt_.diffusion > 0.63)
     throw std::invalid_argument("navier_stokes solver: cfl <= sqrt(3) and diffusion <= 0.63 (RK3 stability), got cfl " +
                                 std::to_string(opt_.cfl) + ", diffusion " + std::to_string(opt_.diffusion));
+  const Sponge& sp = opt_.sponge;
+  if (!(sp.rate >= 0) || !std::isfinite(sp.rate)) throw std::invalid_argument("navier_stokes solver: sponge rate must be >= 0");
+  for (int f = 0; f < 6; ++f) {
+    const double w = sp.width[std::size_t(f)];
+    if (!(w >= 0) || !std::isfinite(w)) throw std::invalid_argument("navier_stokes solver: sponge widths must be >= 0");
+    if (w > 0 && bc_.face[std::size_t(f)].type == BC::periodic)
+      throw std::invalid_argument("navier_stokes solver: a sponge layer on a periodic face");
+  }
+  if (sp.active())
+    for (int a = 0; a < 3; ++a) {
+      const Axis& ax = grid_.axis[std::size_t(a)];
+      auto sigma = [&](double x) {
+        double s = 0;
+        for (int side = 0; side < 2; ++side) {
+          const double w = sp.width[std::size_t(face(a, side))];
+          if (!(w > 0)) continue;
+          const double xi = 1 - (side == 0 ? x - ax.lo : ax.hi - x) / w;
+          if (xi > 0) s = std::max(s, sp.rate * std::min(xi, 1.0) * std::min(xi, 1.0));
+        }
+        return s;
+      };
+      sponge_c_[std::size_t(a)].assign(ax.xc.size(), 0.0);
+      sponge_f_[std::size_t(a)].assign(ax.xf.size(), 0.0);
+      for (int i = 1; i <= ax.n; ++i) sponge_c_[std::size_t(a)][std::size_t(i)] = sigma(ax.xc[std::size_t(i)]);
+      for (int i = 1; i <= ax.n + 1 && std::size_t(i) < ax.xf.size(); ++i)
+        sponge_f_[std::size_t(a)][std::size_t(i)] = sigma(ax.xf[std::size_t(i)]);
+    }
+}
+
+// u* <- (u* + alpha dt sigma u_far) / (1 + alpha dt sigma) at every interior unknown where sigma > 0: the implicit
+// Euler step of du/dt = -sigma (u - u_far) over the stage's alpha dt (the stages' alphas sum to 1).
+void Solver::relax(VectorField& ustar, double adt) const {
+  if (sponge_c_[0].empty()) return;
+  const Shape s = grid_.shape();
+  const Vec3 stream = opt_.sponge.velocity, rate = opt_.frame_rate;
+  for (int d = 0; d < 3; ++d) {
+    const double* sx = (d == 0 ? sponge_f_ : sponge_c_)[0].data();
+    const double* sy = (d == 1 ? sponge_f_ : sponge_c_)[1].data();
+    const double* sz = (d == 2 ? sponge_f_ : sponge_c_)[2].data();
+    Field& u = ustar[d];
+#pragma omp parallel for schedule(static)
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j) {
+        const double syz = std::max(sy[j], sz[k]);
+        for (int i = 1; i <= s.nx; ++i) {
+          const double sigma = std::max(sx[i], syz);
+          if (sigma == 0) continue;
+          const auto x = grid_.point(d, i, j, k);
+          const double target = (stream - rate.cross(Vec3(x[0], x[1], x[2])))[d];
+          u(i, j, k) = (u(i, j, k) + adt * sigma * target) / (1 + adt * sigma);
+        }
+      }
+  }
 }
 
 void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, double t0,
@@ -105,6 +158,7 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   const double adt = c.alpha() * dt;
   predict(grid_, u_, p_, rhs_u_, ustar_, opt_.nu, dt, c);
   if (opt_.frame_rate.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, opt_.frame_rate, dt, c);
+  relax(ustar_, adt);
   impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
   if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
   divergence(grid_, ustar_, div_, 1.0 / adt);

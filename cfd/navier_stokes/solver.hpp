@@ -1,5 +1,6 @@
 // Incompressible Navier-Stokes on a non-uniform staggered grid: fractional step, low-storage RK3, multigrid projection.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -9,6 +10,25 @@
 #include "cfd/navier_stokes/poisson.hpp"
 
 namespace flapstab::ns {
+
+// A sponge layer along the box faces (an absorbing layer: e.g. Colonius 2004, Annu Rev Fluid Mech 36:315). Within
+// width[f] of face f the momentum equation carries the relaxation -sigma(x) (u - u_far) with
+//   sigma = rate xi^2,  xi = 1 - (distance from face f) / width[f]  (1 at the face, 0 at the layer's inner edge),
+// the largest over the faces where layers overlap, and u_far = velocity - frame_rate x r, the far field the velocity
+// faces prescribe (SolverOptions::frame_rate). It is integrated implicitly with each stage's alpha dt, so any rate is
+// stable; a flow equal to u_far is left exactly as it is. It damps what the flow carries towards the faces (a wake)
+// before it reaches them.
+struct Sponge {
+  std::array<double, 6> width{};  // m, indexed by face(axis, side); 0: no layer at that face
+  double rate = 0;                 // sigma at the face (1/s)
+  Vec3 velocity = Vec3::Zero();    // the far-field stream (m/s, the grid's frame)
+  bool active() const {
+    if (!(rate > 0)) return false;
+    for (double w : width)
+      if (w > 0) return true;
+    return false;
+  }
+};
 
 struct SolverOptions {
   double nu = 0;           // kinematic viscosity (m^2/s, or 1/Re in scaled units)
@@ -22,6 +42,7 @@ struct SolverOptions {
   // grad(|Omega x r|^2 / 2), is absorbed in the pressure, which becomes the reduced pressure
   // P = p - |Omega x r|^2 / 2 (kinematic). Boundary velocities are those seen in the rotating frame.
   Vec3 frame_rate = Vec3::Zero();
+  Sponge sponge{};  // none unless a width and a rate are set
 };
 
 // Per-cell state for an immersed boundary (all cells fluid until a body is immersed).
@@ -85,6 +106,7 @@ class Solver {
  private:
   void stage(double dt, const StageCoefficients& c, double t_stage);
   double time_step(double conv) const;
+  void relax(VectorField& ustar, double alpha_dt) const;  // the sponge layer's implicit relaxation
 
   Grid grid_;
   Boundaries bc_;
@@ -95,6 +117,9 @@ class Solver {
   Field p_, div_;                   // pressure, Poisson right-hand side
   VectorField phi_;                 // pressure increment of each stage (next step's initial guess)
   std::vector<CellFlag> flags_;
+  // The sponge's sigma along each axis at the cell centres (c) and at the faces (f); sigma at a point is the largest
+  // of its three axes' values. Empty without a sponge.
+  std::array<std::vector<double>, 3> sponge_c_, sponge_f_;
   StageHooks* hooks_ = nullptr;
   std::vector<PoissonStats> stats_;
   double t_ = 0;

@@ -301,5 +301,55 @@ TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
   }
 }
 
+// Not in the suite (half an hour and more): the far field of perturbed runs at Re ~ 1000, with and without the sponge
+// layer. Runs the hover from rest, then each body velocity of PROBE_VELOCITIES (comma-separated, "u=0.1" or "w=-0.1",
+// fractions of U_ref = 2 Phi f R along x or z of the stability axes) for PROBE_WINGBEATS against the continued hover,
+// and prints per wingbeat the hover's cycle-mean lift and each run's force difference from it, or where the run blew
+// up (docs/validation.md, "The sponge layer"). Environment: PROBE_CASE (default the shipped hawkmoth),
+// PROBE_WINGBEATS (default 10), PROBE_SPONGE_R and PROBE_SPONGE_RATE ([aero.cfd] sponge_R, sponge_rate; default
+// the case's), PROBE_SIDE_R (fore, aft, lateral and above margins; default the case's).
+TEST(CfdModelStudy, DISABLED_FarFieldProbe) {
+  auto env = [](const char* k, const std::string& d) { return std::getenv(k) ? std::string(std::getenv(k)) : d; };
+  Case c = load_case(env("PROBE_CASE", std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/hawkmoth_cfd.toml"));
+  CfdSettings& s = c.aero.cfd;
+  s.max_cycles = std::stoi(env("PROBE_WINGBEATS", "10"));
+  s.perturbation_tolerance = 1e-12;  // every run goes the whole PROBE_WINGBEATS
+  if (std::getenv("PROBE_SPONGE_R")) s.sponge_R = std::stod(env("PROBE_SPONGE_R", ""));
+  if (std::getenv("PROBE_SPONGE_RATE")) s.sponge_rate = std::stod(env("PROBE_SPONGE_RATE", ""));
+  if (std::getenv("PROBE_SIDE_R"))
+    s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
+  const double u_ref = plan_cfd(c, c.kinematics, BodyMotion{}).u_ref, weight = c.insect.weight();
+  std::fprintf(stderr, "sponge_R = %g, sponge_rate = %g per wingbeat; U_ref = %.4g m/s, W = %.4g N\n", s.sponge_R,
+               s.sponge_rate, u_ref, weight);
+  const CfdModel model(c, &std::cerr, "");  // no cache: the key is the case file's, which these changes bypass
+  model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
+  std::stringstream list(env("PROBE_VELOCITIES", "u=0.1,w=0.1"));
+  std::vector<std::string> labels;
+  for (std::string item; std::getline(list, item, ',');) {
+    BodyMotion m;
+    const double v = std::stod(item.substr(2)) * u_ref;
+    (item[0] == 'u' ? m.velocity.x() : m.velocity.z()) = v;
+    labels.push_back(item);
+    try {
+      model.run(c.insect, c.kinematics, m, AeroRunOptions{});
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: stopped: %s\n", item.c_str(), e.what());
+      labels.back() += " (stopped)";
+    }
+  }
+  const auto& ref = model.reference_cycles();
+  std::fprintf(stderr, "continued hover, -F_z / W per wingbeat:");
+  for (const auto& r : ref) std::fprintf(stderr, " %.4f", -r.mean.force.z() / weight);
+  std::fprintf(stderr, "\n");
+  for (std::size_t r = 0; r + 1 < model.records().size(); ++r) {
+    const CfdRunRecord& rec = model.records().at(r + 1);
+    std::fprintf(stderr, "%s, (dX, dZ) / W per wingbeat:", rec.label.c_str());
+    for (std::size_t k = 0; k < rec.cycles.size() && k < ref.size(); ++k)
+      std::fprintf(stderr, " (%+.4f, %+.4f)", (rec.cycles[k].mean.force.x() - ref[k].mean.force.x()) / weight,
+                   (rec.cycles[k].mean.force.z() - ref[k].mean.force.z()) / weight);
+    std::fprintf(stderr, "\n");
+  }
+}
+
 }  // namespace
 }  // namespace flapstab::ns

@@ -1026,6 +1026,49 @@ TEST(CfdSimulation, RestoredStateContinuesBitForBit) {
   EXPECT_EQ(second.state().u[2].data()[1234], whole.state().u[2].data()[1234]);
 }
 
+// The sponge layer relaxes towards the far field of the run's own motion: the uniform stream -V, an exact solution,
+// is left as it is to rounding (a layer relaxing towards still air would slow it by about V sigma t = 1.7 V here).
+// Its width is checked against the room between the fine box and the faces, and a partitioned run refuses it.
+TEST(CfdSimulation, SpongeLayerHoldsTheFarFieldStreamOfTheRun) {
+  const char* keys = "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0.5\ndownstream_R = 0.5\nlateral_R = 0.5\n"
+                     "above_R = 0.5\nbelow_R = 0.6\nsponge_R = 0.3\nsponge_rate = 10\nsteps_per_cycle = 60\nthreads = 1\n";
+  const Case c = cfd_case("sponge.toml", keys);
+  BodyMotion m;
+  m.velocity = Vec3(0.4, 0.1, -0.3);
+  const CfdPlan plan = plan_cfd(c, c.kinematics, m);
+  EXPECT_NEAR(plan.sponge_width, 0.3 * c.insect.wing.length, 1e-15);
+  EXPECT_NEAR(plan.sponge_rate * plan.period, 10, 1e-12);
+  SimulationOptions o;
+  o.bodies = false;
+  Simulation sim(c, c.kinematics, m, plan, o);
+  for (int n = 0; n < 10; ++n) sim.advance();
+  const Solver& sv = sim.solver();
+  const Shape sh = sv.grid().shape();
+  double err = 0;
+  for (int d = 0; d < 3; ++d)
+    for (int k = 1; k <= sh.nz; ++k)
+      for (int j = 1; j <= sh.ny; ++j)
+        for (int i = 1; i <= sh.nx; ++i) err = std::max(err, std::abs(sv.velocity()[d](i, j, k) + m.velocity[d]));
+  EXPECT_LT(err, 1e-12 * m.velocity.norm());
+  EXPECT_TRUE(sv.options().sponge.active());
+
+  const Case wide = cfd_case("wide_sponge.toml", testing::replace(keys, "sponge_R = 0.3", "sponge_R = 0.55"));
+  const std::string too_wide =
+      testing::expect_input_error([&] { (void)plan_cfd(wide, wide.kinematics, m); }, "aero.cfd.sponge_R");
+  EXPECT_NE(too_wide.find("more than the 0.5 between the fine box"), std::string::npos) << too_wide;
+  testing::expect_input_error(
+      [&] { (void)cfd_case("sponge_rate.toml", testing::replace(keys, "sponge_rate = 10", "sponge_rate = 0")); },
+      "aero.cfd.sponge_rate");
+  const std::string fpm = testing::expect_input_error(
+      [&] {
+        (void)load_case(testing::write_temp(
+            "sponge_fpm.toml", testing::replace(cfd_case_text(std::string(keys) + "\n[aero.cfd.fpm]\n"),
+                                                "model = \"quasi-steady\"", "model = \"cfd\"")));
+      },
+      "aero.cfd.sponge_R");
+  EXPECT_NE(fpm.find("force partitioning"), std::string::npos) << fpm;
+}
+
 // The loads agree with those the driver gave before it became a Simulation (forces.csv of this case written by
 // the earlier build, tests/data/cfd): the only change is that the parts' accelerations are analytic instead of
 // central differences over 0.05 of a stage, an O(eps^2) difference. Tolerance 1e-7 of the largest force

@@ -205,6 +205,92 @@ TEST(NavierStokesSolver, StageHooksRunOncePerStage) {
   EXPECT_EQ(s.flags().size(), s.grid().shape().size());
 }
 
+// The sponge layer is du/dt = -sigma(x) (u - u_far) with sigma = rate xi^2, xi the depth into the layer over its
+// width: a flow v(x) along y over a box with walls at x = 0, 1 and periodic in y and z has no advection, no pressure
+// and (nu = 0) no diffusion, so v - V evolves by the layer alone. Each RK3 stage divides it by 1 + alpha_k dt sigma
+// (the implicit step; the alphas sum to 1), which over t agrees with exp(-sigma t) to O(sigma^2 dt t); cells outside
+// both layers keep their value exactly. Widths differ at the two faces, so a layer at the wrong face or a linear
+// profile fails.
+TEST(NavierStokesSolver, SpongeLayerRelaxesTheFlowTowardsTheFarFieldWithItsProfile) {
+  const Axis x = Axis::uniform(0, 1, 40, false), yz = Axis::uniform(0, 1, 4, true);
+  Boundaries bc = Boundaries::all(BC::periodic);
+  const Vec3 V(0, 0.3, 0);
+  for (int side = 0; side < 2; ++side) bc.face[std::size_t(face(0, side))] = FaceCondition{BC::velocity, [V](double) { return V; }, {}};
+  SolverOptions opt;
+  opt.dt = 0.01;
+  opt.poisson.rtol = 1e-10;
+  opt.sponge.width[std::size_t(face(0, 0))] = 0.25;
+  opt.sponge.width[std::size_t(face(0, 1))] = 0.125;
+  opt.sponge.rate = 4;
+  opt.sponge.velocity = V;
+  Solver s(Grid(x, yz, yz), bc, opt);
+  s.initialise([&](double, double, double) { return Vec3(0, V.y() + 1.0, 0); });
+  const int steps = 50;
+  for (int n = 0; n < steps; ++n) s.step();
+  const double t = steps * opt.dt;
+  const double alpha[3] = {8.0 / 15.0, 2.0 / 15.0, 1.0 / 3.0};
+  int inside = 0, outside = 0;
+  for (int i = 1; i <= x.n; ++i) {
+    const double xc = x.xc[std::size_t(i)];
+    const double xi = std::max({0.0, 1 - xc / 0.25, 1 - (1 - xc) / 0.125});
+    const double sigma = 4 * xi * xi;
+    double factor = 1;
+    for (int n = 0; n < steps; ++n)
+      for (double a : alpha) factor /= 1 + a * opt.dt * sigma;
+    const double dv = s.velocity()[1](i, 2, 3) - V.y();
+    EXPECT_NEAR(dv, factor, 1e-12) << "x = " << xc;
+    EXPECT_NEAR(dv, std::exp(-sigma * t), 0.5 * sigma * sigma * opt.dt * t + 1e-12) << "x = " << xc;
+    EXPECT_NEAR(s.velocity()[0](i, 2, 3), 0.0, 1e-14);
+    (sigma > 0 ? inside : outside)++;
+    if (sigma == 0) {
+      EXPECT_EQ(dv, 1.0);
+    }
+  }
+  EXPECT_EQ(inside, 15);  // 10 + 5 cells of 1/40
+  EXPECT_EQ(outside, 25);
+  // The strongest damping is at the faces: exp(-4 (1 - 1/20)^2 / 2) there.
+  EXPECT_LT(s.velocity()[1](1, 1, 1) - V.y(), 0.18);
+}
+
+// On a grid turning at Omega the layer relaxes towards the far field the faces prescribe, V - Omega x r: with the
+// whole box in the layer and a rate far above 1/dt, one step turns any flow into it.
+TEST(NavierStokesSolver, SpongeLayerTargetIsTheTurningFramesFarField) {
+  const Axis a = Axis::uniform(-1, 1, 12, false);
+  const Vec3 V(0.2, -0.1, 0.05), rate(0.3, -0.4, 0.5);
+  Boundaries bc = Boundaries::all(BC::velocity);
+  for (auto& f : bc.face) f.field = [V, rate](double, const Vec3& r) { return Vec3(V - rate.cross(r)); };
+  SolverOptions opt;
+  opt.dt = 0.01;
+  opt.frame_rate = rate;
+  opt.poisson.rtol = 1e-12;
+  opt.sponge.width.fill(2.0);  // every point of the box lies within 2 of some face
+  opt.sponge.rate = 1e14;
+  opt.sponge.velocity = V;
+  Solver s(Grid(a, a, a), bc, opt);
+  s.initialise([](double x, double y, double z) { return Vec3(std::sin(3 * y), std::cos(2 * z), std::sin(x)); });
+  s.step();
+  double err = 0;
+  const Shape sh = s.grid().shape();
+  for (int d = 0; d < 3; ++d)
+    for (int k = 1; k <= sh.nz; ++k)
+      for (int j = 1; j <= sh.ny; ++j)
+        for (int i = 1; i <= sh.nx; ++i) {
+          const auto p = s.grid().point(d, i, j, k);
+          err = std::max(err, std::abs(s.velocity()[d](i, j, k) - (V - rate.cross(Vec3(p[0], p[1], p[2])))[d]));
+        }
+  EXPECT_LT(err, 1e-9);
+  // Widths and rates that make no layer are refused where they are wrong.
+  SolverOptions bad = opt;
+  bad.sponge.rate = -1;
+  EXPECT_THROW(Solver(Grid(a, a, a), bc, bad), std::invalid_argument);
+  const Axis p = Axis::uniform(0, 1, 4, true);
+  SolverOptions periodic;
+  periodic.dt = 0.01;
+  periodic.sponge.rate = 1;
+  periodic.sponge.width[std::size_t(face(1, 0))] = 0.1;
+  EXPECT_THROW(Solver(Grid(p, p, p), Boundaries::all(BC::periodic), periodic), std::invalid_argument);
+}
+
 // A fixed step outside RK3's stability region is refused with the limit in the message.
 TEST(NavierStokesSolver, RejectsUnstableFixedStep) {
   const Axis a = Axis::uniform(0, 2 * pi, 32, true);
