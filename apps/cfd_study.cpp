@@ -368,7 +368,8 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
   };
   return {{"grid", {{"cells", s.cells}, {"cells_per_mean_chord", s.plan.chord_cells},
                     {"fine_spacing_m", s.plan.h_actual}, {"steps_per_cycle", s.plan.steps_per_cycle},
-                    {"reynolds", s.plan.reynolds}, {"seconds_per_step_estimate", s.seconds_per_step_estimate}}},
+                    {"reynolds", s.plan.reynolds}, {"seconds_per_step_estimate", s.seconds_per_step_estimate},
+                    {"sponge_width_m", s.plan.sponge_width}, {"sponge_rate_per_s", s.plan.sponge_rate}}},
           {"quasi_steady_trim", trim_json(s.qs_trim)},
           {"quasi_steady_derivatives", derivatives_json(s.qs)},
           {"runs", runs},
@@ -386,8 +387,12 @@ std::string cfd_study_markdown(const CfdStudy& s) {
   std::string m = "## Navier-Stokes (CFD) stability\n\n";
   m += fmt::format("Grid: {} cells, {:.1f} cells per mean chord (fine spacing {:.4g} m), Re = {:.4g}, {} steps per "
                    "wingbeat. Every run starts from one kept periodic hover state; perturbed runs are measured against "
-                   "the continued hover.\n\n",
-                   s.cells, s.plan.chord_cells, s.plan.h_actual, s.plan.reynolds, s.plan.steps_per_cycle);
+                   "the continued hover.{}\n\n",
+                   s.cells, s.plan.chord_cells, s.plan.h_actual, s.plan.reynolds, s.plan.steps_per_cycle,
+                   s.plan.sponge_width > 0
+                       ? fmt::format(" A sponge layer {:.3g} m deep lines the faces (relaxation rate {:g} per wingbeat "
+                                     "at the face).", s.plan.sponge_width, s.plan.sponge_rate * s.plan.period)
+                       : std::string());
   m += "| run | wingbeats | converged | final change (of weight) | drift across the window | wall time |\n"
        "|---|---|---|---|---|---|\n";
   for (const auto& r : s.runs)

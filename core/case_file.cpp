@@ -569,6 +569,7 @@ CfdSettings parse_cfd(Section s) {
   if (!(d.sponge_rate > 0 && d.sponge_rate <= 1000))
     s.fail("sponge_rate", fmt::format("out of range: {:.6g}", d.sponge_rate),
            "a relaxation rate at the face, per wingbeat, in (0, 1000]");
+  d.sponge_faces = s.strings("sponge_faces", d.sponge_faces, {"upstream", "downstream", "lateral", "above", "below"});
   if (s.has("cells_per_chord") && s.has("cells_per_wing_length"))
     s.fail("cells_per_wing_length", "given together with 'cells_per_chord'", "one of the two");
   auto resolution = [&](const char* k, double dflt) {

@@ -57,6 +57,9 @@ struct CfdSettings {
   // wingbeat: sigma = sponge_rate f). 0: none. It must stay outside the fine box (sponge_R <= every margin above).
   double sponge_R = 0;
   double sponge_rate = 10;
+  // The faces it lines, by their margin's name: "upstream" (x+), "downstream" (x-), "lateral" (y-, y+), "above" (z-),
+  // "below" (z+, the outflow face).
+  std::vector<std::string> sponge_faces = {"upstream", "downstream", "lateral", "above", "below"};
   double cells_per_chord = 16;      // fine spacing h = mean chord / this ...
   double cells_per_wing_length = 0; // ... or, when > 0, h = R / this (the two are exclusive)
   double stretch_ratio = 1.05;      // geometric growth of the cell widths outside the fine box

@@ -353,9 +353,11 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     } else {
       const CfdPlan& p = st->plan;
       say(fmt::format("cfd model: hover from rest, grid {} cells ({:.1f} per mean chord), {} steps per wingbeat, "
-                      "{} to {} wingbeats until the cycle-mean loads change by less than {:g} of the weight\n",
+                      "{} to {} wingbeats until the cycle-mean loads change by less than {:g} of the weight{}\n",
                       plan_grid(p).cells(), p.chord_cells, p.steps_per_cycle, st->hover_settings.min_cycles,
-                      st->hover_settings.max_cycles, st->hover_settings.tolerance));
+                      st->hover_settings.max_cycles, st->hover_settings.tolerance,
+                      p.sponge_width > 0 ? fmt::format("; sponge layer {:.3g} m deep along the faces", p.sponge_width)
+                                         : std::string()));
       Simulation sim(st->base_case, kin, BodyMotion{}, p);
       PeriodicRun pr;
       try {

@@ -299,9 +299,16 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
   }
   // The sponge layer stays in the stretched cells: its inner edge never inside the fine box.
   if (s.sponge_R > 0) {
-    int worst = 0;
-    for (int f = 1; f < 6; ++f)
-      if ((f % 2 ? hi_margin : lo_margin)[f / 2] < (worst % 2 ? hi_margin : lo_margin)[worst / 2]) worst = f;
+    const char* face_name[6] = {"downstream", "upstream", "lateral", "lateral", "above", "below"};
+    int worst = -1;
+    for (int f = 0; f < 6; ++f) {
+      const std::string name = face_name[f];
+      p.sponge_faces[std::size_t(f)] =
+          std::find(s.sponge_faces.begin(), s.sponge_faces.end(), name) != s.sponge_faces.end();
+      if (p.sponge_faces[std::size_t(f)] &&
+          (worst < 0 || (f % 2 ? hi_margin : lo_margin)[f / 2] < (worst % 2 ? hi_margin : lo_margin)[worst / 2]))
+        worst = f;
+    }
     const double room = (worst % 2 ? hi_margin : lo_margin)[worst / 2];
     if (s.sponge_R > room)
       throw InputError(file, "aero.cfd.sponge_R",

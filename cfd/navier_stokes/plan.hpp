@@ -33,8 +33,9 @@ struct CfdPlan {
   int parts = 3;                  // parts of the insect's geometry: 3, or 5 with a hind pair
   double tip_speed_max = 0;       // largest wingtip speed over the cycle, either pair (m/s), for the CFL check of a fixed dt
   double body_speed_max = 0;      // largest far-field speed |V| + |Omega| r of the planned motions (m/s)
-  double sponge_width = 0;        // sponge layer along every face (m; 0: none) ...
-  double sponge_rate = 0;         // ... and its relaxation rate at the face (1/s)
+  double sponge_width = 0;        // sponge layer depth (m; 0: none) ...
+  double sponge_rate = 0;         // ... its relaxation rate at the face (1/s) ...
+  std::array<bool, 6> sponge_faces{};  // ... and the faces it lines (face(axis, side))
   int cycles = 1;
   int steps_per_cycle = 0;        // 0: adaptive dt
   double dt = 0;                  // fixed dt (s) or 0

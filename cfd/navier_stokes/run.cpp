@@ -63,6 +63,8 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
   g["fine_spacing_m"] = plan.h_actual;
   g["cells_per_mean_chord"] = plan.chord_cells;
   g["stretch_ratio"] = s.stretch_ratio;
+  g["sponge_width_m"] = plan.sponge_width;  // 0: no sponge layer
+  g["sponge_rate_per_s"] = plan.sponge_rate;
   g["bytes"] = res.bytes;
   g["bytes_per_cell"] = double(res.bytes) / res.cells;
   j["grid"] = g;
@@ -240,6 +242,10 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                         plan.steps_per_cycle > 0 ? "" : "about ", long(std::ceil(steps_left_est)),
                         plan.steps_per_cycle > 0 ? fmt::format(" (dt = T/{} = {:.4g} s)", plan.steps_per_cycle, plan.dt)
                                                  : fmt::format(" (adaptive dt, CFL {})", s.cfl));
+    if (plan.sponge_width > 0)
+      *log << fmt::format("  sponge layer {:.4g} m deep along every face, relaxing towards the far field at up to "
+                          "{:.4g} /s ({:g} per wingbeat)\n",
+                          plan.sponge_width, plan.sponge_rate, plan.sponge_rate * plan.period);
     if (ck) *log << "  restarting from " << res.restarted_from << fmt::format(" (step {}, t = {:.6g} s)\n", start_step, t0);
     for (const auto& w : plan.warnings) *log << "  warning: " << w << "\n";
   }

@@ -306,8 +306,8 @@ TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
 // fractions of U_ref = 2 Phi f R along x or z of the stability axes) for PROBE_WINGBEATS against the continued hover,
 // and prints per wingbeat the hover's cycle-mean lift and each run's force difference from it, or where the run blew
 // up (docs/validation.md, "The sponge layer"). Environment: PROBE_CASE (default the shipped hawkmoth),
-// PROBE_WINGBEATS (default 10), PROBE_SPONGE_R and PROBE_SPONGE_RATE ([aero.cfd] sponge_R, sponge_rate; default
-// the case's), PROBE_SIDE_R (fore, aft, lateral and above margins; default the case's).
+// PROBE_WINGBEATS (default 10), PROBE_SPONGE_R, PROBE_SPONGE_RATE and PROBE_SPONGE_FACES ([aero.cfd] sponge_R,
+// sponge_rate, sponge_faces comma-separated; default the case's), PROBE_SIDE_R (fore, aft, lateral and above margins; default the case's).
 TEST(CfdModelStudy, DISABLED_FarFieldProbe) {
   auto env = [](const char* k, const std::string& d) { return std::getenv(k) ? std::string(std::getenv(k)) : d; };
   Case c = load_case(env("PROBE_CASE", std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/hawkmoth_cfd.toml"));
@@ -316,6 +316,11 @@ TEST(CfdModelStudy, DISABLED_FarFieldProbe) {
   s.perturbation_tolerance = 1e-12;  // every run goes the whole PROBE_WINGBEATS
   if (std::getenv("PROBE_SPONGE_R")) s.sponge_R = std::stod(env("PROBE_SPONGE_R", ""));
   if (std::getenv("PROBE_SPONGE_RATE")) s.sponge_rate = std::stod(env("PROBE_SPONGE_RATE", ""));
+  if (std::getenv("PROBE_SPONGE_FACES")) {
+    s.sponge_faces.clear();
+    std::stringstream faces(env("PROBE_SPONGE_FACES", ""));
+    for (std::string f; std::getline(faces, f, ',');) s.sponge_faces.push_back(f);
+  }
   if (std::getenv("PROBE_SIDE_R"))
     s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
   const double u_ref = plan_cfd(c, c.kinematics, BodyMotion{}).u_ref, weight = c.insect.weight();

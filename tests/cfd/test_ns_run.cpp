@@ -1038,6 +1038,7 @@ TEST(CfdSimulation, SpongeLayerHoldsTheFarFieldStreamOfTheRun) {
   const CfdPlan plan = plan_cfd(c, c.kinematics, m);
   EXPECT_NEAR(plan.sponge_width, 0.3 * c.insect.wing.length, 1e-15);
   EXPECT_NEAR(plan.sponge_rate * plan.period, 10, 1e-12);
+  for (bool on : plan.sponge_faces) EXPECT_TRUE(on);  // every face by default
   SimulationOptions o;
   o.bodies = false;
   Simulation sim(c, c.kinematics, m, plan, o);
@@ -1059,6 +1060,15 @@ TEST(CfdSimulation, SpongeLayerHoldsTheFarFieldStreamOfTheRun) {
   testing::expect_input_error(
       [&] { (void)cfd_case("sponge_rate.toml", testing::replace(keys, "sponge_rate = 10", "sponge_rate = 0")); },
       "aero.cfd.sponge_rate");
+  // A layer on some faces only is checked against their room alone: 0.55 R fits below (0.6) but not at the others.
+  const Case below = cfd_case("sponge_below.toml", testing::replace(keys, "sponge_R = 0.3",
+                                                                     "sponge_R = 0.55\nsponge_faces = [\"below\"]"));
+  const CfdPlan below_plan = plan_cfd(below, below.kinematics, m);
+  for (int f = 0; f < 6; ++f) EXPECT_EQ(below_plan.sponge_faces[std::size_t(f)], f == face(2, 1)) << f;
+  testing::expect_input_error(
+      [&] { (void)cfd_case("sponge_faces.toml", testing::replace(keys, "sponge_R = 0.3",
+                                                                 "sponge_R = 0.3\nsponge_faces = [\"bottom\"]")); },
+      "aero.cfd.sponge_faces");
   const std::string fpm = testing::expect_input_error(
       [&] {
         (void)load_case(testing::write_temp(
