@@ -307,7 +307,9 @@ TEST(CfdModelStudy, DISABLED_RateResponseProbe) {
 // and prints per wingbeat the hover's cycle-mean lift and each run's force difference from it, or where the run blew
 // up (docs/validation.md, "The sponge layer"). Environment: PROBE_CASE (default the shipped hawkmoth),
 // PROBE_WINGBEATS (default 10), PROBE_SPONGE_R, PROBE_SPONGE_RATE and PROBE_SPONGE_FACES ([aero.cfd] sponge_R,
-// sponge_rate, sponge_faces comma-separated; default the case's), PROBE_SIDE_R (fore, aft, lateral and above margins; default the case's).
+// sponge_rate, sponge_faces comma-separated; default the case's), PROBE_SIDE_R (fore, aft, lateral and above
+// margins; default the case's), PROBE_HOVER_TOLERANCE (the hover's; a tiny value runs it PROBE_WINGBEATS; with
+// PROBE_VELOCITIES empty only the hover runs).
 TEST(CfdModelStudy, DISABLED_FarFieldProbe) {
   auto env = [](const char* k, const std::string& d) { return std::getenv(k) ? std::string(std::getenv(k)) : d; };
   Case c = load_case(env("PROBE_CASE", std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/hawkmoth_cfd.toml"));
@@ -323,6 +325,7 @@ TEST(CfdModelStudy, DISABLED_FarFieldProbe) {
   }
   if (std::getenv("PROBE_SIDE_R"))
     s.upstream_R = s.downstream_R = s.lateral_R = s.above_R = std::stod(env("PROBE_SIDE_R", ""));
+  if (std::getenv("PROBE_HOVER_TOLERANCE")) s.hover_tolerance = std::stod(env("PROBE_HOVER_TOLERANCE", ""));
   const double u_ref = plan_cfd(c, c.kinematics, BodyMotion{}).u_ref, weight = c.insect.weight();
   std::fprintf(stderr, "sponge_R = %g, sponge_rate = %g per wingbeat; U_ref = %.4g m/s, W = %.4g N\n", s.sponge_R,
                s.sponge_rate, u_ref, weight);
