@@ -66,18 +66,30 @@ void Solver::relax(VectorField& ustar, double adt) const {
     const double* sx = (d == 0 ? sponge_f_ : sponge_c_)[0].data();
     const double* sy = (d == 1 ? sponge_f_ : sponge_c_)[1].data();
     const double* sz = (d == 2 ? sponge_f_ : sponge_c_)[2].data();
+    const double* cx = (d == 0 ? grid_.axis[0].xf : grid_.axis[0].xc).data();
+    const double* cy = (d == 1 ? grid_.axis[1].xf : grid_.axis[1].xc).data();
+    const double* cz = (d == 2 ? grid_.axis[2].xf : grid_.axis[2].xc).data();
+    // u_far[d] = stream[d] - (Omega x r)[d] = stream[d] - sum_a g[a] r[a]
+    double g[3];
+    for (int a = 0; a < 3; ++a) g[a] = rate.cross(Vec3::Unit(a))[d];
+    std::vector<int> band;  // the x indices inside a layer: all a row has where neither y nor z is in one
+    for (int i = 1; i <= s.nx; ++i)
+      if (sx[i] > 0) band.push_back(i);
     Field& u = ustar[d];
 #pragma omp parallel for schedule(static)
     for (int k = 1; k <= s.nz; ++k)
       for (int j = 1; j <= s.ny; ++j) {
         const double syz = std::max(sy[j], sz[k]);
-        for (int i = 1; i <= s.nx; ++i) {
-          const double sigma = std::max(sx[i], syz);
-          if (sigma == 0) continue;
-          const auto x = grid_.point(d, i, j, k);
-          const double target = (stream - rate.cross(Vec3(x[0], x[1], x[2])))[d];
-          u(i, j, k) = (u(i, j, k) + adt * sigma * target) / (1 + adt * sigma);
-        }
+        const double base = stream[d] - g[1] * cy[j] - g[2] * cz[k];
+        real* row = &u(0, j, k);
+        auto one = [&](int i) {
+          const double sigma = std::max(sx[i], syz), target = base - g[0] * cx[i];
+          row[i] = (row[i] + adt * sigma * target) / (1 + adt * sigma);
+        };
+        if (syz > 0)
+          for (int i = 1; i <= s.nx; ++i) one(i);
+        else
+          for (int i : band) one(i);
       }
   }
 }
