@@ -565,10 +565,10 @@ CfdSettings parse_cfd(Section s) {
   d.below_R = margin("below_R", d.below_R);
   d.fine_margin_R = margin("fine_margin_R", d.fine_margin_R);
   d.sponge_R = margin("sponge_R", d.sponge_R);
-  d.sponge_rate = s.number_or("sponge_rate", d.sponge_rate, "a relaxation rate at the face, per wingbeat, in (0, 1000]");
+  const char* rate_expected = "a relaxation rate at the face, per wingbeat, in (0, 1000]";
+  d.sponge_rate = s.number_or("sponge_rate", d.sponge_rate, rate_expected);
   if (!(d.sponge_rate > 0 && d.sponge_rate <= 1000))
-    s.fail("sponge_rate", fmt::format("out of range: {:.6g}", d.sponge_rate),
-           "a relaxation rate at the face, per wingbeat, in (0, 1000]");
+    s.fail("sponge_rate", fmt::format("out of range: {:.6g}", d.sponge_rate), rate_expected);
   d.sponge_faces = s.strings("sponge_faces", d.sponge_faces, {"upstream", "downstream", "lateral", "above", "below"});
   if (s.has("cells_per_chord") && s.has("cells_per_wing_length"))
     s.fail("cells_per_wing_length", "given together with 'cells_per_chord'", "one of the two");

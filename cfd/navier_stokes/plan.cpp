@@ -312,8 +312,8 @@ CfdPlan plan_cfd(const Case& c, const std::vector<Kinematics>& kinematics, const
     const double room = (worst % 2 ? hi_margin : lo_margin)[worst / 2];
     if (s.sponge_R > room)
       throw InputError(file, "aero.cfd.sponge_R",
-                       fmt::format("{:.6g} wing lengths, more than the {:.6g} between the fine box and the domain's {}{} "
-                                   "face ({}): the layer would damp the flow around the insect",
+                       fmt::format("{:.6g} wing lengths, more than the {:.6g} between the fine box and the "
+                                   "domain's {}{} face ({}): the layer would damp the flow around the insect",
                                    s.sponge_R, room, "xyz"[worst / 2], worst % 2 ? '+' : '-',
                                    (worst % 2 ? hi_key : lo_key)[worst / 2]),
                        fmt::format("a width of at most {:.6g} (or larger margins)", room));

@@ -63,7 +63,7 @@ SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const Bo
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
   if (plan.sponge_width > 0) {
-    for (int f = 0; f < 6; ++f) so.sponge.width[std::size_t(f)] = plan.sponge_faces[std::size_t(f)] ? plan.sponge_width : 0;
+    for (std::size_t f = 0; f < 6; ++f) so.sponge.width[f] = plan.sponge_faces[f] ? plan.sponge_width : 0;
     so.sponge.rate = plan.sponge_rate;
     so.sponge.velocity = -m.velocity;  // with so.frame_rate: the far field -V - Omega x r the faces prescribe
   }

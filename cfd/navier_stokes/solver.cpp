@@ -28,7 +28,8 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
     throw std::invalid_argument("navier_stokes solver: cfl <= sqrt(3) and diffusion <= 0.63 (RK3 stability), got cfl " +
                                 std::to_string(opt_.cfl) + ", diffusion " + std::to_string(opt_.diffusion));
   const Sponge& sp = opt_.sponge;
-  if (!(sp.rate >= 0) || !std::isfinite(sp.rate)) throw std::invalid_argument("navier_stokes solver: sponge rate must be >= 0");
+  if (!(sp.rate >= 0) || !std::isfinite(sp.rate))
+    throw std::invalid_argument("navier_stokes solver: sponge rate must be >= 0");
   for (int f = 0; f < 6; ++f) {
     const double w = sp.width[std::size_t(f)];
     if (!(w >= 0) || !std::isfinite(w)) throw std::invalid_argument("navier_stokes solver: sponge widths must be >= 0");

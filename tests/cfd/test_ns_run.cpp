@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include "cfd/navier_stokes/insect_motion.hpp"
 #include <hdf5.h>
 #include "cfd/navier_stokes/io_hdf5.hpp"
@@ -1031,7 +1032,8 @@ TEST(CfdSimulation, RestoredStateContinuesBitForBit) {
 // Its width is checked against the room between the fine box and the faces, and a partitioned run refuses it.
 TEST(CfdSimulation, SpongeLayerHoldsTheFarFieldStreamOfTheRun) {
   const char* keys = "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0.5\ndownstream_R = 0.5\nlateral_R = 0.5\n"
-                     "above_R = 0.5\nbelow_R = 0.6\nsponge_R = 0.3\nsponge_rate = 10\nsteps_per_cycle = 60\nthreads = 1\n";
+                     "above_R = 0.5\nbelow_R = 0.6\nsponge_R = 0.3\nsponge_rate = 10\nsteps_per_cycle = 60\n"
+                     "threads = 1\n";
   const Case c = cfd_case("sponge.toml", keys);
   BodyMotion m;
   m.velocity = Vec3(0.4, 0.1, -0.3);
@@ -1052,6 +1054,14 @@ TEST(CfdSimulation, SpongeLayerHoldsTheFarFieldStreamOfTheRun) {
         for (int i = 1; i <= sh.nx; ++i) err = std::max(err, std::abs(sv.velocity()[d](i, j, k) + m.velocity[d]));
   EXPECT_LT(err, 1e-12 * m.velocity.norm());
   EXPECT_TRUE(sv.options().sponge.active());
+  // run.json states the layer.
+  CfdRunOptions ro;
+  ro.bodies = false;
+  ro.directory = fresh_dir("sponge");
+  (void)run_cfd(c, c.kinematics, m, ro);  // one wingbeat of 60 steps: run.json is written at the end
+  const auto j = nlohmann::json::parse(read_text(ro.directory + "/run.json"));
+  EXPECT_NEAR(j["grid"]["sponge_width_m"].get<double>(), plan.sponge_width, 1e-15);
+  EXPECT_NEAR(j["grid"]["sponge_rate_per_s"].get<double>(), plan.sponge_rate, 1e-9);
 
   const Case wide = cfd_case("wide_sponge.toml", testing::replace(keys, "sponge_R = 0.3", "sponge_R = 0.55"));
   const std::string too_wide =

@@ -215,7 +215,8 @@ TEST(NavierStokesSolver, SpongeLayerRelaxesTheFlowTowardsTheFarFieldWithItsProfi
   const Axis x = Axis::uniform(0, 1, 40, false), yz = Axis::uniform(0, 1, 4, true);
   Boundaries bc = Boundaries::all(BC::periodic);
   const Vec3 V(0, 0.3, 0);
-  for (int side = 0; side < 2; ++side) bc.face[std::size_t(face(0, side))] = FaceCondition{BC::velocity, [V](double) { return V; }, {}};
+  for (int side = 0; side < 2; ++side)
+    bc.face[std::size_t(face(0, side))] = FaceCondition{BC::velocity, [V](double) { return V; }, {}};
   SolverOptions opt;
   opt.dt = 0.01;
   opt.poisson.rtol = 1e-10;
@@ -331,8 +332,8 @@ TEST(NavierStokesSolver, SpongeLayerLetsAVortexLeaveThroughAPrescribedFace) {
     return worst / peak;
   };
   const double with = run(10), without = run(0);
-  std::printf("  largest |u - U| upstream of the layer over t = 3.5 ... 6, of the vortex's peak: %.3e with the layer, %.3e "
-              "without\n", with, without);
+  std::printf("  largest |u - U| upstream of the layer over t = 3.5 ... 6, of the vortex's peak: %.3e with the "
+              "layer, %.3e without\n", with, without);
   EXPECT_LT(with, 2e-3);
   EXPECT_GT(without, 0.09);
 }
