@@ -40,7 +40,7 @@ TEST(CfdStudyPlan, WarnsWhenTheRateStepTurnsTheBodyMoreThanFiveDegreesPerWingbea
 // `analyze` on them start their runs. (A model change once left the fruit fly's rate step just under the bound:
 // 0.0196 against 0.02 of the weight.)
 TEST(CfdStudyPlan, ShippedCfdCasesPassThePreRunChecks) {
-  for (const char* name : {"fruitfly_cfd.toml", "hawkmoth_cfd.toml"}) {
+  for (const char* name : {"fruitfly_cfd.toml", "hawkmoth_cfd.toml", "bumblebee_cfd.toml"}) {
     const Case c = load_case(std::string(FLAPSTAB_SOURCE_DIR) + "/data/cases/" + name);
     Case qc = c;
     qc.aero.model = "quasi-steady";

@@ -368,7 +368,7 @@ TEST(Examples, FlusiKinematicsFile) {
 }
 
 TEST(Examples, CfdCaseDryRun) {
-  for (const char* name : {"hawkmoth_cfd.toml", "fruitfly_cfd.toml"}) {
+  for (const char* name : {"hawkmoth_cfd.toml", "fruitfly_cfd.toml", "bumblebee_cfd.toml"}) {
     const CliResult r = flapstab("cfd " + source + "/data/cases/" + name + " --dry-run");
     EXPECT_EQ(r.status, 0) << name << ": " << r.err;
     EXPECT_NE(r.err.find("estimate (timed on the first 2 steps)"), std::string::npos) << r.err;
