@@ -55,6 +55,12 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
       for (int i = 1; i <= ax.n + 1 && std::size_t(i) < ax.xf.size(); ++i)
         sponge_f_[std::size_t(a)][std::size_t(i)] = sigma(ax.xf[std::size_t(i)]);
     }
+  if (sp.active())
+    for (int d = 0; d < 3; ++d) {
+      const std::vector<double>& sx = (d == 0 ? sponge_f_ : sponge_c_)[0];
+      for (int i = 1; i <= grid_.axis[0].n; ++i)
+        if (sx[std::size_t(i)] > 0) sponge_band_[std::size_t(d)].push_back(i);
+    }
 }
 
 // u* <- (u* + alpha dt sigma u_far) / (1 + alpha dt sigma) at every interior unknown where sigma > 0: the implicit
@@ -73,9 +79,7 @@ void Solver::relax(VectorField& ustar, double adt) const {
     // u_far[d] = stream[d] - (Omega x r)[d] = stream[d] - sum_a g[a] r[a]
     double g[3];
     for (int a = 0; a < 3; ++a) g[a] = rate.cross(Vec3::Unit(a))[d];
-    std::vector<int> band;  // the x indices inside a layer: all a row has where neither y nor z is in one
-    for (int i = 1; i <= s.nx; ++i)
-      if (sx[i] > 0) band.push_back(i);
+    const std::vector<int>& band = sponge_band_[std::size_t(d)];  // a row's points where neither y nor z is in one
     Field& u = ustar[d];
 #pragma omp parallel for schedule(static)
     for (int k = 1; k <= s.nz; ++k)

@@ -120,6 +120,7 @@ class Solver {
   // The sponge's sigma along each axis at the cell centres (c) and at the faces (f); sigma at a point is the largest
   // of its three axes' values. Empty without a sponge.
   std::array<std::vector<double>, 3> sponge_c_, sponge_f_;
+  std::array<std::vector<int>, 3> sponge_band_;  // per component: the x indices inside an x layer
   StageHooks* hooks_ = nullptr;
   std::vector<PoissonStats> stats_;
   double t_ = 0;
