@@ -715,11 +715,6 @@ Case load_case(const std::string& path) {
     throw InputError(path, "aero.cfd.fpm", "force partitioning splits the loads of a CFD run, but [aero] model is \"" +
                                                c.aero.model + "\"",
                      "[aero] model = \"cfd\" (or remove [aero.cfd.fpm])");
-  if (c.aero.cfd.fpm.enabled && c.aero.cfd.sponge_R > 0)
-    throw InputError(path, "aero.cfd.sponge_R",
-                     fmt::format("{:.6g} with [aero.cfd.fpm]: force partitioning does not account for the sponge "
-                                 "layer's relaxation force yet", c.aero.cfd.sponge_R),
-                     "sponge_R = 0 for a partitioned run (or remove [aero.cfd.fpm])");
   if (c.aero.model == "cfd") check_cfd_geometry(c.insect, path, "aero.model");
   // The hind pair's parts exist only in a four-winged insect's geometry.
   if (!c.insect.hind_wing)

@@ -214,9 +214,6 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   if (!geometry_) throw std::logic_error("force partitioning: partition() before update()");
   if (solver.options().frame_rate.squaredNorm() > 0)
     throw std::invalid_argument("force partitioning needs an inertial grid frame (this run's grid turns with the body)");
-  if (solver.options().sponge.active())
-    throw std::invalid_argument("force partitioning does not account for a sponge layer's relaxation force yet: set "
-                                "[aero.cfd] sponge_R = 0 for a partitioned run");
   const Grid& g = *grid_;
   const FluidGeometry& o = *geometry_;
   const Shape s = g.shape();
@@ -314,6 +311,33 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
+  // The sponge layer's force per unit mass f = -sigma (u - u_far) (Solver::sponge_force) per open face times its open
+  // area, weighted with grad phi like the viscous term: rho int f . grad phi dV, a part of the outer term (the far
+  // field's treatment, its faces and its layer). None without a layer.
+  const bool sponge = solver.options().sponge.active();
+  ns::VectorField sponge_area;
+  if (sponge) {
+    sponge_area = ns::VectorField(s);
+    solver.sponge_force(u, sponge_area);
+    for (int d = 0; d < 3; ++d) {
+      const int e = (d + 1) % 3, h = (d + 2) % 3;
+      Field& w = sponge_area[d];
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            const int I[3] = {ii, j, kk};
+            const double beta = o.aperture[std::size_t(d)](ii, j, kk);
+            if (beta <= 0 || (!g.axis[std::size_t(d)].periodic && I[d] == 1)) {
+              w(ii, j, kk) = 0;
+              continue;
+            }
+            w(ii, j, kk) *=
+                beta * g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+          }
+    }
+  }
+
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
   std::vector<double> vortex_weight(s.cells());
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
@@ -372,11 +396,25 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       for (double v : by_region) T.regions.push_back(-2 * rho * v);
     double outer_term = 0;
     for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
+    double layer = 0;  // int f . grad phi dV of the sponge layer
+    if (sponge) {
+      const double *f0 = sponge_area[0].data(), *f1 = sponge_area[1].data(), *f2 = sponge_area[2].data();
+#pragma omp parallel for schedule(static) reduction(+ : layer) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j) {
+          const std::ptrdiff_t n0 = s(1, j, kk);
+          for (int ii = 0; ii < s.nx; ++ii) {
+            const std::ptrdiff_t n = n0 + ii;
+            const double f = phi[n];
+            layer += f0[n] * (f - phi[n - 1]) + f1[n] * (f - phi[n - sy]) + f2[n] * (f - phi[n - sz]);
+          }
+        }
+    }
     T.kinematic = rho * kin;
     T.centripetal = rho * car;
     T.vortex = -2 * rho * vortex;
     T.viscous = mu * visc;
-    T.outer = -rho * outer_term;
+    T.outer = -rho * outer_term + rho * layer;
     T.pressure = rho * direct;
     return T;
   };

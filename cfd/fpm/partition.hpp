@@ -15,6 +15,7 @@
 //                 - 2 rho int_fluid Q phi dV                   vortex-induced
 //                 + mu int_fluid lap u . grad phi dV           viscous
 //                 - rho oint_domain phi (Du/Dt . n) dS         outer boundary (n out of the domain)
+//                 + rho int_fluid f . grad phi dV              its sponge layer (f = -sigma (u - u_far); none without)
 // The skin friction on the part is not part of the pressure force; it is reported beside (the solver's loads).
 #pragma once
 #include <array>
@@ -38,7 +39,7 @@ struct PartPartition {
   Vec6 centripetal = Vec6::Zero();  // its share from the centripetal accelerations omega x (omega x r): the CAR
   Vec6 vortex = Vec6::Zero();       // -2 rho int Q phi dV
   Vec6 viscous = Vec6::Zero();      // mu int lap u . grad phi dV
-  Vec6 outer = Vec6::Zero();        // -rho oint_domain phi Du/Dt . n dS
+  Vec6 outer = Vec6::Zero();        // -rho oint_domain phi Du/Dt . n dS + rho int f_sponge . grad phi dV
   Vec6 pressure = Vec6::Zero();     // -oint p g dS on the staircase surface (the partition's sum, computed directly)
   std::vector<Vec6> vortex_regions; // the vortex-induced part by region (set_regions; empty without), summing to vortex
   // Rate of work of the part on the fluid by mechanism, W: -(F . v(x0) + M . omega) with the part's rigid velocity.

@@ -63,39 +63,55 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
     }
 }
 
+// Calls fn(n, sigma, u_far) for every interior unknown n of component d inside a layer (flat index of the field),
+// sigma the layer's rate there and u_far the far field's component d; rows in parallel.
+template <class Fn>
+void Solver::sweep_sponge(int d, Fn&& fn) const {
+  const Shape s = grid_.shape();
+  const Vec3 stream = opt_.sponge.velocity, rate = opt_.frame_rate;
+  const double* sx = (d == 0 ? sponge_f_ : sponge_c_)[0].data();
+  const double* sy = (d == 1 ? sponge_f_ : sponge_c_)[1].data();
+  const double* sz = (d == 2 ? sponge_f_ : sponge_c_)[2].data();
+  const double* cx = (d == 0 ? grid_.axis[0].xf : grid_.axis[0].xc).data();
+  const double* cy = (d == 1 ? grid_.axis[1].xf : grid_.axis[1].xc).data();
+  const double* cz = (d == 2 ? grid_.axis[2].xf : grid_.axis[2].xc).data();
+  // u_far[d] = stream[d] - (Omega x r)[d] = stream[d] - sum_a g[a] r[a]
+  double g[3];
+  for (int a = 0; a < 3; ++a) g[a] = rate.cross(Vec3::Unit(a))[d];
+  const std::vector<int>& band = sponge_band_[std::size_t(d)];  // a row's points where neither y nor z is in one
+#pragma omp parallel for schedule(static)
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j) {
+      const double syz = std::max(sy[j], sz[k]);
+      const double base = stream[d] - g[1] * cy[j] - g[2] * cz[k];
+      const std::ptrdiff_t row = s(0, j, k);
+      auto one = [&](int i) { fn(row + i, std::max(sx[i], syz), base - g[0] * cx[i]); };
+      if (syz > 0)
+        for (int i = 1; i <= s.nx; ++i) one(i);
+      else
+        for (int i : band) one(i);
+    }
+}
+
 // u* <- (u* + alpha dt sigma u_far) / (1 + alpha dt sigma) at every interior unknown where sigma > 0: the implicit
 // Euler step of du/dt = -sigma (u - u_far) over the stage's alpha dt (the stages' alphas sum to 1).
 void Solver::relax(VectorField& ustar, double adt) const {
   if (sponge_c_[0].empty()) return;
-  const Shape s = grid_.shape();
-  const Vec3 stream = opt_.sponge.velocity, rate = opt_.frame_rate;
   for (int d = 0; d < 3; ++d) {
-    const double* sx = (d == 0 ? sponge_f_ : sponge_c_)[0].data();
-    const double* sy = (d == 1 ? sponge_f_ : sponge_c_)[1].data();
-    const double* sz = (d == 2 ? sponge_f_ : sponge_c_)[2].data();
-    const double* cx = (d == 0 ? grid_.axis[0].xf : grid_.axis[0].xc).data();
-    const double* cy = (d == 1 ? grid_.axis[1].xf : grid_.axis[1].xc).data();
-    const double* cz = (d == 2 ? grid_.axis[2].xf : grid_.axis[2].xc).data();
-    // u_far[d] = stream[d] - (Omega x r)[d] = stream[d] - sum_a g[a] r[a]
-    double g[3];
-    for (int a = 0; a < 3; ++a) g[a] = rate.cross(Vec3::Unit(a))[d];
-    const std::vector<int>& band = sponge_band_[std::size_t(d)];  // a row's points where neither y nor z is in one
-    Field& u = ustar[d];
-#pragma omp parallel for schedule(static)
-    for (int k = 1; k <= s.nz; ++k)
-      for (int j = 1; j <= s.ny; ++j) {
-        const double syz = std::max(sy[j], sz[k]);
-        const double base = stream[d] - g[1] * cy[j] - g[2] * cz[k];
-        real* row = &u(0, j, k);
-        auto one = [&](int i) {
-          const double sigma = std::max(sx[i], syz), target = base - g[0] * cx[i];
-          row[i] = (row[i] + adt * sigma * target) / (1 + adt * sigma);
-        };
-        if (syz > 0)
-          for (int i = 1; i <= s.nx; ++i) one(i);
-        else
-          for (int i : band) one(i);
-      }
+    real* u = ustar[d].data();
+    sweep_sponge(d, [&](std::ptrdiff_t n, double sigma, double target) {
+      u[n] = (u[n] + adt * sigma * target) / (1 + adt * sigma);
+    });
+  }
+}
+
+void Solver::sponge_force(const VectorField& u, VectorField& f) const {
+  for (int d = 0; d < 3; ++d) {
+    f[d].fill(0);
+    if (sponge_c_[0].empty()) continue;
+    const real* v = u[d].data();
+    real* out = f[d].data();
+    sweep_sponge(d, [&](std::ptrdiff_t n, double sigma, double target) { out[n] = -sigma * (v[n] - target); });
   }
 }
 

@@ -100,6 +100,9 @@ class Solver {
   // Poisson initial guesses); restoring them reproduces the run bit for bit. restore() refills the box
   // ghosts and runs the attached hooks' after_projection at t, as the step that wrote them did.
   const VectorField& pressure_increments() const { return phi_; }
+  // The sponge layer's force per unit mass on the velocity u, -sigma (u - u_far) (SolverOptions::sponge), at every
+  // interior unknown; zero outside the layers and everywhere without a sponge. f must have the grid's shape.
+  void sponge_force(const VectorField& u, VectorField& f) const;
   bool has_guess() const { return guess_; }
   void restore(double t, const VectorField& u, const Field& p, const VectorField& phi, bool guess);
 
@@ -107,6 +110,8 @@ class Solver {
   void stage(double dt, const StageCoefficients& c, double t_stage);
   double time_step(double conv) const;
   void relax(VectorField& ustar, double alpha_dt) const;  // the sponge layer's implicit relaxation
+  template <class Fn>
+  void sweep_sponge(int d, Fn&& fn) const;  // fn(flat index, sigma, u_far) at every unknown of component d in a layer
 
   Grid grid_;
   Boundaries bc_;

@@ -301,6 +301,103 @@ TEST(FpmPartition, ImpulsivelyAcceleratedSphereIsAllKinematic) {
   EXPECT_GT(gap[0] / gap[1], 1.6);
 }
 
+// u_x at the origin, interpolated trilinearly from the staggered field.
+double ux_at_origin(const Grid& g, const Field& u) {
+  auto below = [](const std::vector<double>& x, int n) {
+    int i = 1;
+    while (i < n && x[std::size_t(i + 1)] <= 0) ++i;
+    return i;
+  };
+  const Shape s = g.shape();
+  const int i = below(g.axis[0].xf, s.nx), j = below(g.axis[1].xc, s.ny), k = below(g.axis[2].xc, s.nz);
+  const double wx = -g.axis[0].xf[std::size_t(i)] / (g.axis[0].xf[std::size_t(i + 1)] - g.axis[0].xf[std::size_t(i)]);
+  const double wy = -g.axis[1].xc[std::size_t(j)] / (g.axis[1].xc[std::size_t(j + 1)] - g.axis[1].xc[std::size_t(j)]);
+  const double wz = -g.axis[2].xc[std::size_t(k)] / (g.axis[2].xc[std::size_t(k + 1)] - g.axis[2].xc[std::size_t(k)]);
+  double v = 0;
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b)
+      for (int c = 0; c < 2; ++c)
+        v += (a ? wx : 1 - wx) * (b ? wy : 1 - wy) * (c ? wz : 1 - wz) * u(i + a, j + b, k + c);
+  return v;
+}
+
+struct SpongeDriven {
+  fpm::PartPartition P;
+  double reference = 0;  // 3/2 rho V a, a the acceleration at the origin without the sphere
+  double surface = 0;    // the immersed boundary's pressure force (surface integral)
+};
+
+// A sphere (R = 0.5, rho = 1) held at rest in a walled box [-4, 4]^3 of fluid at rest, set in motion by a sponge
+// layer 2 deep along the y+ face relaxing towards u_far = (1, 0, 0) at rate 5 (nothing else drives the flow);
+// partitioned at t = 0.01 (5 steps, nu = 1e-4). The same run without the sphere gives the acceleration at the origin.
+SpongeDriven sponge_driven_sphere(double h) {
+  const double R = 0.5, V = 4.0 / 3.0 * pi * R * R * R;
+  const Grid g = sphere_grid(h, -4, 4, 0.8);
+  SolverOptions opt;
+  opt.nu = 1e-4;
+  opt.dt = 0.002;
+  opt.sponge.width[std::size_t(face(1, 1))] = 2.0;
+  opt.sponge.rate = 5.0;
+  opt.sponge.velocity = Vec3(1, 0, 0);
+  SpongeDriven r;
+  {
+    Solver free(g, Boundaries::all(BC::velocity), opt);
+    free.initialise([](double, double, double) { return Vec3::Zero(); });
+    for (int n = 0; n < 4; ++n) free.step();
+    const double before = ux_at_origin(g, free.velocity()[0]);
+    free.step();
+    r.reference = 1.5 * V * (ux_at_origin(g, free.velocity()[0]) - before) / opt.dt;
+  }
+  Solver s(g, Boundaries::all(BC::velocity), opt);
+  s.initialise([](double, double, double) { return Vec3::Zero(); });
+  ImmersedBoundary ib(g);
+  ib.add_part(sphere_mesh(R, 24), [](double) {
+    return PartState{RigidTransform{Mat3::Identity(), Vec3::Zero()},
+                     RigidVelocity{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}};
+  });
+  ib.attach(s);
+  for (int n = 0; n < 5; ++n) s.step();
+  const std::vector<PartState> states{ib.state(0, s.time())};
+  ForcePartition f(g, {.components = {0, 1, 2}});
+  f.update(ib, states);
+  r.P = f.partition(s, states, 1.0)[0];
+  r.surface = ib.loads(s, Vec3::Zero())[0].pressure_force.x();
+  return r;
+}
+
+// The sponge layer's force enters the partition through its outer part, rho int f . grad phi dV with
+// f = -sigma (u - u_far). Here it is the only thing driving the flow: a layer along the y+ face pushes its fluid
+// towards +x, and since the box is closed the rest of the fluid returns along -x, accelerated by a pressure that
+// is harmonic outside the layer (div f = 0). At the first instants that flow is irrotational round the sphere, so
+// the force on the held sphere is the Froude-Krylov force plus the added mass, 3/2 rho V a, with a the ambient
+// acceleration at its centre (Taylor 1928; exact for a harmonic ambient field, whose volume mean over the sphere is
+// its centre value): the reference, a taken from the same run without the sphere. The kinematic part vanishes (the
+// sphere is held), the vortex-induced and viscous parts are second order in t and small, so the outer part carries
+// the force. Without the layer's term the partition would give about zero; with the wrong sign, -1. Tolerance 1 %,
+// the box's images ((R/L)^3, as for the potential above); measured -0.34 %, -0.35 % on h = R/6, R/10. The pressure
+// force computed directly from the solver's pressure reads 15.6 % and 10.8 % high (the immersed boundary's surface
+// integral 14.0 %, 10.2 %): the first-order error of the direct forcing next to the held body, as for the
+// accelerated sphere above; asserted to fall from one grid to the next (first order would be 1.67-fold; 1.44).
+TEST(FpmPartition, SpongeLayerForceIsInTheOuterPart) {
+  double gap[2];
+  int n = 0;
+  for (double h : {0.5 / 6, 0.5 / 10}) {
+    const SpongeDriven r = sponge_driven_sphere(h);
+    const fpm::PartPartition& P = r.P;
+    const std::string what =
+        fmt::format("sponge-driven flow past a held sphere, h = R/{:.0f}, F_x / (3/2 rho V a)", 0.5 / h);
+    print(what.c_str(), P, 0, r.reference);
+    fmt::print("  3/2 rho V a = {:+.5e}; immersed boundary surface pressure force / it {:+.5f}\n", r.reference,
+               r.surface / r.reference);
+    EXPECT_LT(r.reference, 0);  // the return flow runs along -x
+    EXPECT_NEAR(P.outer[0] / r.reference, 1.0, 0.01);
+    EXPECT_LT(std::abs(P.kinematic[0]), 1e-12 * std::abs(r.reference));
+    EXPECT_LT(std::abs(P.vortex[0] + P.viscous[0]), 0.05 * std::abs(r.reference));
+    gap[n++] = std::abs(P.pressure[0] / r.reference - 1);
+  }
+  EXPECT_GT(gap[0] / gap[1], 1.2);
+}
+
 // Closure on a steady flow: the sphere at Re = 100 (the immersed boundary's drag validation case,
 // tests/common/sphere_flow.hpp) at t = 8 D/U, past its start-up, on h = D/8 and D/12. The sphere does not move, so
 // the kinematic part vanishes and the pressure drag is the vortex-induced + viscous + outer parts; their sum is
