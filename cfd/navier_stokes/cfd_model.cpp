@@ -359,9 +359,37 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                       p.sponge_width > 0 ? fmt::format("; sponge layer {:.3g} m deep along the faces", p.sponge_width)
                                          : std::string()));
       Simulation sim(st->base_case, kin, BodyMotion{}, p);
+      // A hover interrupted (killed) resumes from its last whole wingbeat: its state and its wingbeats so far are kept
+      // after every wingbeat beside hover.h5, and removed when it ends.
+      const std::string partial_json = file("hover.partial.json"), partial_h5 = file("hover.partial.h5");
+      PeriodicRun earlier;
+      if (const auto part = cache_.empty() ? std::nullopt : read_json(partial_json, st->key);
+          part && fs::exists(partial_h5)) {
+        const CheckpointReader ck(partial_h5);
+        const SimulationState saved = read_state(ck, plan_grid(p).shape());
+        if (saved.step == part->at("step").get<long>()) {
+          sim.restore(saved);
+          earlier.cycles = cycles_from(part->at("cycles"));
+          earlier.last_cycle = rows_from(part->at("last_cycle"));
+          earlier.wall_seconds = part->at("wall_s").get<double>();
+          say(fmt::format("  hover resumed after its wingbeat {} from {}\n", earlier.cycles.size(), partial_h5));
+        } else {  // killed between the two writes
+          say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; the hover starts again "
+                          "from rest\n", partial_h5, saved.step, partial_json, part->at("step").get<long>()));
+        }
+      }
+      auto keep = [&](const PeriodicRun& so_far) {
+        if (cache_.empty()) return;
+        fs::create_directories(cache_);
+        write_state(partial_h5, sim.state(), {}, {{"key", st->key}});
+        write_file_atomic(partial_json, nlohmann::json{{"key", st->key}, {"cycles", cycles_json(so_far.cycles)},
+                                                       {"last_cycle", rows_json(so_far.last_cycle)},
+                                                       {"step", sim.step()}, {"wall_s", so_far.wall_seconds}}
+                                            .dump(1) + "\n");
+      };
       PeriodicRun pr;
       try {
-        pr = run_until_periodic(sim, st->hover_settings, log_, "  hover ");
+        pr = run_until_periodic(sim, st->hover_settings, log_, "  hover ", std::move(earlier), keep);
       } catch (const StepFailure& e) {
         throw SolveError(fmt::format("cfd model: the hover from rest diverged at step {} (t/T = {:.4f}): {}; lower the "
                                      "time step (aero.cfd.steps_per_cycle)", e.step(), e.time() / p.period, e.why()));
@@ -381,6 +409,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
                             {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
         write_file_atomic(file("hover.json"), j.dump(1) + "\n");
+        std::error_code ec;
+        fs::remove(partial_json, ec);
+        fs::remove(partial_h5, ec);
       }
     }
     if (!cache_.empty()) {

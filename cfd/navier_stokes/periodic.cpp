@@ -36,15 +36,20 @@ WindowStatistics window_statistics(const std::vector<Wrench>& means, const Perio
   return w;
 }
 
-PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label) {
+PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label,
+                               PeriodicRun earlier, const std::function<void(const PeriodicRun&)>& after_wingbeat) {
   const int n = sim.plan().steps_per_cycle;
   if (n <= 0) throw SolveError("periodic CFD run: needs a fixed, phase-locked time step ([aero.cfd] steps_per_cycle)");
   if (sim.step() % n != 0)
     throw SolveError(fmt::format("periodic CFD run: the simulation is at step {}, not on a wingbeat boundary ({} steps "
                                  "per wingbeat)", sim.step(), n));
   const auto t0 = std::chrono::steady_clock::now();
-  PeriodicRun run;
-  for (int cycle = 1; cycle <= s.max_cycles; ++cycle) {
+  PeriodicRun run = std::move(earlier);
+  const double earlier_seconds = run.wall_seconds;
+  auto elapsed = [&] {
+    return earlier_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (int cycle = int(run.cycles.size()) + 1; cycle <= s.max_cycles; ++cycle) {
     std::vector<CfdLoadRow> rows;
     rows.reserve(std::size_t(n));
     Wrench sum;
@@ -58,7 +63,7 @@ PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::
     if (!run.cycles.empty()) rec.change = cycle_change(rec.mean, run.cycles.back().mean, s);
     run.cycles.push_back(rec);
     run.last_cycle = std::move(rows);
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double secs = elapsed();
     if (log)
       *log << fmt::format("{}wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N, M = ({:+.4e}, {:+.4e}, {:+.4e}) N m, "
                           "change {} ({:.0f} s)\n",
@@ -70,8 +75,12 @@ PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::
       run.converged = true;
       break;
     }
+    if (after_wingbeat && cycle < s.max_cycles) {
+      run.wall_seconds = secs;
+      after_wingbeat(run);
+    }
   }
-  run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.wall_seconds = elapsed();
   return run;
 }
 

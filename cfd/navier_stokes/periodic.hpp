@@ -8,6 +8,7 @@
 // If the cycle means approach their limit geometrically with ratio r per wingbeat, the remaining error is
 // change r / (1 - r): below the change itself for r < 1/2 (docs/theory/cfd-stability.md).
 #pragma once
+#include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -56,7 +57,11 @@ WindowStatistics window_statistics(const std::vector<Wrench>& means, const Perio
 
 // Advances `sim` wingbeat by wingbeat until converged (or max_cycles); a progress line per wingbeat on `log`
 // starting with `label`. SolveError if the plan has no fixed step or the simulation is not on a wingbeat boundary;
-// StepFailure if a step fails.
-PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label);
+// StepFailure if a step fails. A run killed part way continues from `earlier`, the wingbeats it had finished (with
+// `sim` restored to its state after them): the result is that of the uninterrupted run. `after_wingbeat` is called
+// with the run so far after every wingbeat that does not end it (to keep that state).
+PeriodicRun run_until_periodic(Simulation& sim, const PeriodicSettings& s, std::ostream* log, const std::string& label,
+                               PeriodicRun earlier = {},
+                               const std::function<void(const PeriodicRun&)>& after_wingbeat = {});
 
 }  // namespace flapstab::ns

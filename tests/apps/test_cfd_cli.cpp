@@ -369,7 +369,8 @@ TEST(CfdCli, InterruptWritesACheckpointAndRestartContinues) {
 
 // A killed analysis resumed with the same command gives the same results as an uninterrupted one (the CFD stability
 // chain, docs/theory/cfd-stability.md): the hover state and every finished run are kept in cfd_runs/ and reused
-// bit for bit, the rest is run from the kept hover. The tiny moth at Re 20, the longitudinal table (6 runs).
+// bit for bit, a hover or a run killed part way resumes from its last whole wingbeat, the rest is run from the kept
+// hover. The tiny moth at Re 20, the longitudinal table (6 runs); killed once in the hover and once in the runs.
 // A whole CFD analysis in about 20 s: the tiny grid at Re 20, a short hover, the longitudinal table (6 runs).
 std::string small_cfd_analysis() {
   return with_cfd(std::string(tiny) + "steps_per_cycle = 100\nreynolds = 20\ncycles = 2\nhover_tolerance = 0.5\n"
@@ -390,7 +391,17 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
   };
   const std::string err_whole = write_temp("cfd_resume_whole.txt", "");
   ASSERT_EQ(WEXITSTATUS(run(whole, err_whole)), 0);
-  // Kill the second analysis (SIGKILL: no chance to tidy up) once two perturbed runs are finished and a third has
+  // Kill the second analysis first in its hover from rest, once it has kept a whole wingbeat (hover.partial.json):
+  // the next start resumes the hover from it.
+  const std::string err_hover = write_temp("cfd_resume_hover.txt", "");
+  const std::string hover_script =
+      std::string(FLAPSTAB_BINARY) + " analyze " + path + " -o " + killed.string() + " > /dev/null 2> " + err_hover +
+      " & pid=$!; for i in $(seq 3000); do [ -e " + (killed / "cfd_runs" / "hover.partial.json").string() +
+      " ] && break; sleep 0.01; done; kill -KILL $pid; wait $pid; true";
+  ASSERT_EQ(std::system(("bash -c '" + hover_script + "'").c_str()), 0);
+  ASSERT_TRUE(fs::exists(killed / "cfd_runs" / "hover.partial.json"));
+  ASSERT_FALSE(fs::exists(killed / "cfd_runs" / "hover.json")) << "the hover finished before it was killed";
+  // Then kill the second analysis (SIGKILL: no chance to tidy up) once two perturbed runs are finished and a third has
   // kept a whole wingbeat (run_*.partial.json): the rerun resumes that run from it.
   const std::string err_killed = write_temp("cfd_resume_killed.txt", ""), count = write_temp("cfd_resume_n.txt", "");
   const std::string runs = (killed / "cfd_runs").string();
@@ -403,6 +414,11 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
   ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0);
   int finished = 0, partial = 0;
   std::ifstream(count) >> finished >> partial;
+  {
+    std::stringstream hs;
+    hs << std::ifstream(err_killed).rdbuf();
+    EXPECT_NE(hs.str().find("hover resumed after its wingbeat"), std::string::npos) << hs.str();
+  }
   ASSERT_GE(finished, 2);
   ASSERT_LT(finished, 6) << "the analysis finished before it was killed";
   EXPECT_FALSE(fs::exists(killed / "results.json"));
