@@ -370,11 +370,13 @@ SpongeDriven sponge_driven_sphere(double h) {
 // towards +x, and since the box is closed the rest of the fluid returns along -x, accelerated by a pressure that
 // is harmonic outside the layer (div f = 0). At the first instants that flow is irrotational round the sphere, so
 // the force on the held sphere is the Froude-Krylov force plus the added mass, 3/2 rho V a, with a the ambient
-// acceleration at its centre (Taylor 1928; exact for a harmonic ambient field, whose volume mean over the sphere is
-// its centre value): the reference, a taken from the same run without the sphere. The kinematic part vanishes (the
-// sphere is held), the vortex-induced and viscous parts are second order in t and small, so the outer part carries
-// the force. Without the layer's term the partition would give about zero; with the wrong sign, -1. Tolerance 1 %,
-// the box's images ((R/L)^3, as for the potential above); measured -0.34 %, -0.35 % on h = R/6, R/10. The pressure
+// acceleration at its centre (Auton, Hunt & Prud'homme 1988, J Fluid Mech 197:241; the Froude-Krylov part exactly,
+// since a harmonic field's mean over the sphere is its centre value, the added mass up to the ambient field's
+// variation over the sphere, small here): the reference, a taken from the same run without the sphere. The
+// kinematic part vanishes (the sphere is held), the vortex-induced and viscous parts are second order in t and
+// small, so the outer part carries the force. Without the layer's term the partition would give about zero; with
+// the wrong sign, -1. Tolerance 1 %, the box's images ((R/L)^3, as for the potential above); measured -0.34 %,
+// -0.35 % on h = R/6, R/10. The pressure
 // force computed directly from the solver's pressure reads 15.6 % and 10.8 % high (the immersed boundary's surface
 // integral 14.0 %, 10.2 %): the first-order error of the direct forcing next to the held body, as for the
 // accelerated sphere above; asserted to fall from one grid to the next (first order would be 1.67-fold; 1.44).
