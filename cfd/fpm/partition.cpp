@@ -276,8 +276,16 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   }
 
   // mu lap u . grad phi per open face (both cells fluid) without grad phi: the MAC Laplacian of u_d at the face
-  // times its open area beta A (the same for every potential, so computed once)
+  // times its open area beta A (the same for every potential, so computed once). With a sponge layer also its force
+  // per unit mass f = -sigma (u - u_far) (Solver::sponge_force) times beta A, weighted with grad phi the same way:
+  // rho int f . grad phi dV, a part of the outer term (the far field's treatment, its faces and its layer).
   ns::VectorField lap_area(s);
+  const bool sponge = solver.options().sponge.active();
+  ns::VectorField sponge_area;  // f beta A per open face; zero elsewhere
+  if (sponge) {
+    sponge_area = ns::VectorField(s);
+    solver.sponge_force(u, sponge_area);
+  }
   for (int d = 0; d < 3; ++d) {
     const ns::Axis& ad = g.axis[std::size_t(d)];
     const int e = (d + 1) % 3, h = (d + 2) % 3;
@@ -288,8 +296,13 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       for (int j = 1; j <= s.ny; ++j)
         for (int ii = 1; ii <= s.nx; ++ii) {
           const int I[3] = {ii, j, kk};
-          if (!ad.periodic && I[d] == 1) continue;
+          if (!ad.periodic && I[d] == 1) {
+            if (sponge) sponge_area[d](ii, j, kk) = 0;
+            continue;
+          }
           const double beta = o.aperture[std::size_t(d)](ii, j, kk);
+          const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+          if (sponge) sponge_area[d](ii, j, kk) *= beta > 0 ? beta * area : 0.0;
           if (beta <= 0) continue;
           int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
           ++A[d];
@@ -306,36 +319,8 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
             lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(ii, j, kk)) * aa.idf[J + 1] -
                     (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
           }
-          const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
           w(ii, j, kk) = lap * beta * area;
         }
-  }
-
-  // The sponge layer's force per unit mass f = -sigma (u - u_far) (Solver::sponge_force) per open face times its open
-  // area, weighted with grad phi like the viscous term: rho int f . grad phi dV, a part of the outer term (the far
-  // field's treatment, its faces and its layer). None without a layer.
-  const bool sponge = solver.options().sponge.active();
-  ns::VectorField sponge_area;
-  if (sponge) {
-    sponge_area = ns::VectorField(s);
-    solver.sponge_force(u, sponge_area);
-    for (int d = 0; d < 3; ++d) {
-      const int e = (d + 1) % 3, h = (d + 2) % 3;
-      Field& w = sponge_area[d];
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j)
-          for (int ii = 1; ii <= s.nx; ++ii) {
-            const int I[3] = {ii, j, kk};
-            const double beta = o.aperture[std::size_t(d)](ii, j, kk);
-            if (beta <= 0 || (!g.axis[std::size_t(d)].periodic && I[d] == 1)) {
-              w(ii, j, kk) = 0;
-              continue;
-            }
-            w(ii, j, kk) *=
-                beta * g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
-          }
-    }
   }
 
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
@@ -372,23 +357,28 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     const int nr = std::max(region_count_, 1);
     std::vector<double> by_region(std::size_t(nr), 0.0);
     double* acc = by_region.data();
-    double visc = 0;
+    double visc = 0, layer = 0;  // layer: int f . grad phi dV of the sponge layer
     const int* label = region_count_ > 0 ? region_labels_.data() : nullptr;
     const double *w0 = lap_area[0].data(), *w1 = lap_area[1].data(), *w2 = lap_area[2].data();
+    const double* f0 = sponge ? sponge_area[0].data() : nullptr;
+    const double* f1 = sponge ? sponge_area[1].data() : nullptr;
+    const double* f2 = sponge ? sponge_area[2].data() : nullptr;
     const std::ptrdiff_t sy = s.sy, sz = s.sz;
-#pragma omp parallel for schedule(static) reduction(+ : acc[:nr], visc) if (ns::threaded(s))
+#pragma omp parallel for schedule(static) reduction(+ : acc[:nr], visc, layer) if (ns::threaded(s))
     for (int kk = 1; kk <= s.nz; ++kk)
       for (int j = 1; j <= s.ny; ++j) {
         const std::size_t m0 = flat(1, j, kk);
         const std::ptrdiff_t n0 = s(1, j, kk);
-        double line = 0;
+        double line = 0, line_layer = 0;
         for (int ii = 0; ii < s.nx; ++ii) {
           const std::ptrdiff_t n = n0 + ii;
-          const double f = phi[n];
-          line += w0[n] * (f - phi[n - 1]) + w1[n] * (f - phi[n - sy]) + w2[n] * (f - phi[n - sz]);
+          const double f = phi[n], dx = f - phi[n - 1], dy = f - phi[n - sy], dz = f - phi[n - sz];
+          line += w0[n] * dx + w1[n] * dy + w2[n] * dz;
+          if (f0) line_layer += f0[n] * dx + f1[n] * dy + f2[n] * dz;
           acc[label ? label[m0 + std::size_t(ii)] : 0] += vortex_weight[m0 + std::size_t(ii)] * f;
         }
         visc += line;
+        layer += line_layer;
       }
     double vortex = 0;
     for (double v : by_region) vortex += v;
@@ -396,20 +386,6 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       for (double v : by_region) T.regions.push_back(-2 * rho * v);
     double outer_term = 0;
     for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
-    double layer = 0;  // int f . grad phi dV of the sponge layer
-    if (sponge) {
-      const double *f0 = sponge_area[0].data(), *f1 = sponge_area[1].data(), *f2 = sponge_area[2].data();
-#pragma omp parallel for schedule(static) reduction(+ : layer) if (ns::threaded(s))
-      for (int kk = 1; kk <= s.nz; ++kk)
-        for (int j = 1; j <= s.ny; ++j) {
-          const std::ptrdiff_t n0 = s(1, j, kk);
-          for (int ii = 0; ii < s.nx; ++ii) {
-            const std::ptrdiff_t n = n0 + ii;
-            const double f = phi[n];
-            layer += f0[n] * (f - phi[n - 1]) + f1[n] * (f - phi[n - sy]) + f2[n] * (f - phi[n - sz]);
-          }
-        }
-    }
     T.kinematic = rho * kin;
     T.centripetal = rho * car;
     T.vortex = -2 * rho * vortex;
