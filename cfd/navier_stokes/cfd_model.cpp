@@ -255,6 +255,37 @@ std::optional<nlohmann::json> read_json(const std::string& path, const std::stri
   }
 }
 
+
+// A run under way keeps its state after its last whole wingbeat (h5) and what it has measured so far (json, with
+// `key` and `step`): read back if both belong to `key` and to each other (a run killed between the two writes gets a
+// warning through `say` and starts again), kept after each wingbeat, removed when the run ends.
+struct PartialRun {
+  std::string json, h5;
+  std::optional<std::pair<SimulationState, nlohmann::json>> read(const std::string& key, const Shape& shape,
+                                                                 const std::function<void(const std::string&)>& say,
+                                                                 const char* restart) const {
+    const auto part = read_json(json, key);
+    if (!part || !fs::exists(h5)) return std::nullopt;
+    const CheckpointReader ck(h5);
+    SimulationState saved = read_state(ck, shape);
+    if (saved.step == part->at("step").get<long>()) return std::make_pair(std::move(saved), *part);
+    say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; {}\n", h5, saved.step, json,
+                    part->at("step").get<long>(), restart));
+    return std::nullopt;
+  }
+  void keep(const std::string& key, const SimulationState& state, nlohmann::json measured) const {
+    write_state(h5, state, {}, {{"key", key}});
+    measured["key"] = key;
+    measured["step"] = state.step;
+    write_file_atomic(json, measured.dump(1) + "\n");
+  }
+  void remove() const {
+    std::error_code ec;
+    fs::remove(json, ec);
+    fs::remove(h5, ec);
+  }
+};
+
 }  // namespace
 
 const char* PartitionMeans::term_name(int t) {
@@ -361,31 +392,23 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       Simulation sim(st->base_case, kin, BodyMotion{}, p);
       // A hover interrupted (killed) resumes from its last whole wingbeat: its state and its wingbeats so far are kept
       // after every wingbeat beside hover.h5, and removed when it ends.
-      const std::string partial_json = file("hover.partial.json"), partial_h5 = file("hover.partial.h5");
+      const PartialRun partial{file("hover.partial.json"), file("hover.partial.h5")};
       PeriodicRun earlier;
-      if (const auto part = cache_.empty() ? std::nullopt : read_json(partial_json, st->key);
-          part && fs::exists(partial_h5)) {
-        const CheckpointReader ck(partial_h5);
-        const SimulationState saved = read_state(ck, plan_grid(p).shape());
-        if (saved.step == part->at("step").get<long>()) {
-          sim.restore(saved);
-          earlier.cycles = cycles_from(part->at("cycles"));
-          earlier.last_cycle = rows_from(part->at("last_cycle"));
-          earlier.wall_seconds = part->at("wall_s").get<double>();
-          say(fmt::format("  hover resumed after its wingbeat {} from {}\n", earlier.cycles.size(), partial_h5));
-        } else {  // killed between the two writes
-          say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; the hover starts again "
-                          "from rest\n", partial_h5, saved.step, partial_json, part->at("step").get<long>()));
-        }
+      if (const auto part = cache_.empty() ? std::nullopt
+                                           : partial.read(st->key, plan_grid(p).shape(), say,
+                                                          "the hover starts again from rest")) {
+        sim.restore(part->first);
+        earlier.cycles = cycles_from(part->second.at("cycles"));
+        earlier.last_cycle = rows_from(part->second.at("last_cycle"));
+        earlier.wall_seconds = part->second.at("wall_s").get<double>();
+        say(fmt::format("  hover resumed after its wingbeat {} from {}\n", earlier.cycles.size(), partial.h5));
       }
       auto keep = [&](const PeriodicRun& so_far) {
         if (cache_.empty()) return;
         fs::create_directories(cache_);
-        write_state(partial_h5, sim.state(), {}, {{"key", st->key}});
-        write_file_atomic(partial_json, nlohmann::json{{"key", st->key}, {"cycles", cycles_json(so_far.cycles)},
-                                                       {"last_cycle", rows_json(so_far.last_cycle)},
-                                                       {"step", sim.step()}, {"wall_s", so_far.wall_seconds}}
-                                            .dump(1) + "\n");
+        partial.keep(st->key, sim.state(),
+                     {{"cycles", cycles_json(so_far.cycles)}, {"last_cycle", rows_json(so_far.last_cycle)},
+                      {"wall_s", so_far.wall_seconds}});
       };
       PeriodicRun pr;
       try {
@@ -409,9 +432,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
                             {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
         write_file_atomic(file("hover.json"), j.dump(1) + "\n");
-        std::error_code ec;
-        fs::remove(partial_json, ec);
-        fs::remove(partial_h5, ec);
+        partial.remove();
       }
     }
     if (!cache_.empty()) {
@@ -516,24 +537,19 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     std::vector<std::optional<PartitionMeans>> phist;
     // A run interrupted (killed, or diverged) resumes from its last whole wingbeat: its state and its history so far
     // are kept after every wingbeat beside the run's file, and removed when the run ends.
-    const std::string partial_json = file("run_" + run_key + ".partial.json"), partial_h5 = file("run_" + run_key + ".partial.h5");
+    const PartialRun partial{file("run_" + run_key + ".partial.json"), file("run_" + run_key + ".partial.h5")};
     double earlier_seconds = 0;
     bool resumed = false;
-    if (const auto part = cache_.empty() ? std::nullopt : read_json(partial_json, run_key); part && fs::exists(partial_h5)) {
-      const CheckpointReader ck(partial_h5);
-      SimulationState saved = read_state(ck, plan_grid(plan).shape());
-      if (saved.step == part->at("step").get<long>()) {
-        sim.restore(saved);
-        for (const auto& h : part->at("history")) history.push_back(rows_from(h));
-        phist = partitions_from(*part, history.size());
-        rec.cycles = cycles_from(part->at("cycles"));
-        earlier_seconds = part->at("wall_s").get<double>();
-        resumed = true;
-        say(fmt::format("  resumed after its wingbeat {} from {}\n", history.size(), partial_h5));
-      } else {  // killed between the two writes
-        say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; the run starts again from "
-                        "the hover\n", partial_h5, saved.step, partial_json, part->at("step").get<long>()));
-      }
+    if (const auto part = cache_.empty() ? std::nullopt
+                                         : partial.read(run_key, plan_grid(plan).shape(), say,
+                                                        "the run starts again from the hover")) {
+      sim.restore(part->first);
+      for (const auto& h : part->second.at("history")) history.push_back(rows_from(h));
+      phist = partitions_from(part->second, history.size());
+      rec.cycles = cycles_from(part->second.at("cycles"));
+      earlier_seconds = part->second.at("wall_s").get<double>();
+      resumed = true;
+      say(fmt::format("  resumed after its wingbeat {} from {}\n", history.size(), partial.h5));
     }
     if (!resumed) sim.restore(st.hover_state, BodyMotion{});
     for (int k = int(history.size()) + 1; k <= st.perturbed_settings.max_cycles; ++k) {
@@ -549,7 +565,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         throw SolveError(fmt::format("cfd model: run {} ({}) diverged in its wingbeat {} (step {}): {}; lower the time "
                                      "step (aero.cfd.steps_per_cycle) or the perturbation{}", number, label, k, e.step(),
                                      e.why(), k > 1 && !cache_.empty()
-                                                  ? fmt::format(" (its state after wingbeat {} is kept in {})", k - 1, partial_h5)
+                                                  ? fmt::format(" (its state after wingbeat {} is kept in {})", k - 1, partial.h5)
                                                   : std::string()));
       }
       // The reference at the same wingbeat: one process at a time extends it (a campaign), after taking what the
@@ -671,15 +687,11 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       }
       if (!cache_.empty() && k < st.perturbed_settings.max_cycles) {
         fs::create_directories(cache_);
-        write_state(partial_h5, sim.state(), {}, {{"key", run_key}});
         nlohmann::json hj = nlohmann::json::array();
         for (const auto& h : history) hj.push_back(rows_json(h));
-        write_file_atomic(partial_json, nlohmann::json{{"key", run_key}, {"cycles", cycles_json(rec.cycles)},
-                                                       {"history", hj}, {"partition", partitions_json(phist)},
-                                                       {"step", sim.step()},
-                                                       {"wall_s", earlier_seconds + std::chrono::duration<double>(
-                                                                                        clock_type::now() - t0).count()}}
-                                                .dump(1) + "\n");
+        partial.keep(run_key, sim.state(),
+                     {{"cycles", cycles_json(rec.cycles)}, {"history", hj}, {"partition", partitions_json(phist)},
+                      {"wall_s", earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count()}});
       }
     }
     rec.wall_seconds = earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count();
@@ -694,9 +706,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                           {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)},
                           {"partition", rec.partition ? partition_json(*rec.partition) : nlohmann::json()}};
       write_file_atomic(run_file, j.dump(1) + "\n");
-      std::error_code ec;
-      fs::remove(partial_json, ec);
-      fs::remove(partial_h5, ec);
+      partial.remove();
     }
   }
   st.records.push_back(rec);
