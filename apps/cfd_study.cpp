@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <ostream>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include "apps/results_json.hpp"
+#include "apps/stability_json.hpp"
 #include "cfd/aero_factory.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "cfd/navier_stokes/run.hpp"
@@ -172,6 +174,38 @@ std::optional<std::string> rate_step_warning(const Case& c, double rate_step, do
       rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles, h * 5 / turn);
 }
 
+PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& run, const DerivativeTable& table) {
+  PitchOscillationStudy p;
+  p.run = run;
+  const ReferenceQuantities& ref = table.reference;
+  const double tc = ref.time_scale();  // c / U: q = q+ / tc
+  p.omega_nd = run.omega * tc;
+  for (int i = 0; i < 6; ++i) {
+    const double scale = i < 3 ? ref.force_scale() : ref.moment_scale();
+    const ns::OscillationFit &f = run.fit[std::size_t(i)], &l = run.last_period[std::size_t(i)];
+    const std::size_t k = std::size_t(i);
+    p.rate_nd[k] = f.rate / (scale * tc);
+    p.rate_se_nd[k] = f.rate_se < 0 ? -1 : f.rate_se / (scale * tc);
+    p.rate_last_nd[k] = l.rate / (scale * tc);
+    p.theta_nd[k] = f.theta / scale;
+    p.theta_se_nd[k] = f.theta_se < 0 ? -1 : f.theta_se / scale;
+    p.theta_last_nd[k] = l.theta / scale;
+  }
+  if (table.has_longitudinal) {
+    p.modes_steady_rate = analyse_modes(longitudinal_system(table), ref);
+    DerivativeTable t = table;
+    for (int i : {0, 2, 4}) t.nd(i, 4) = p.rate_nd[std::size_t(i)];
+    StateSpace sys = longitudinal_system(t);
+    // The aerodynamic attitude derivatives join gravity in the theta column: X+ / m+, Z+ / m+, M+ / Iy+.
+    const NonDimensionalParameters q = nondimensional_parameters(t);
+    sys.A(0, 3) += p.theta_nd[0] / q.m;
+    sys.A(1, 3) += p.theta_nd[2] / q.m;
+    sys.A(2, 3) += p.theta_nd[4] / q.Iyy;
+    p.modes = analyse_modes(sys, ref);
+  }
+  return p;
+}
+
 CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   const auto t0 = clock_type::now();
   CfdStudy s;
@@ -234,6 +268,15 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         "wingbeat) to split the velocity derivatives by mechanism; this raises their cost by a factor the estimate "
         "above leaves out (`flapstab cfd {} --dry-run` prints it; 1.3-1.4 on the hawkmoth example)\n",
         cs.fpm.samples_per_cycle, c.path);
+
+  if (const auto& po = c.derivatives.pitch_oscillation; log && po.enabled) {
+    const int wb = (po.transient_wingbeats < 0 ? po.period_wingbeats : po.transient_wingbeats) +
+                   po.periods * po.period_wingbeats;
+    *log << fmt::format("cfd study: then a forced pitch oscillation of {:g} deg, {} wingbeats per period: {} wingbeats "
+                        "beside the continued hover, up to {} more\n",
+                        po.amplitude_deg, po.period_wingbeats, wb, ns::fmt_seconds(2 * wb * per_cycle))
+         << std::flush;
+  }
 
   // 3. CFD trim from the quasi-steady one.
   ns::CfdModel cfd(c, log, cache);
@@ -322,12 +365,79 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   } catch (const std::exception& e) {
     s.notices.push_back(std::string("Floquet analysis of the CFD A(t) failed: ") + e.what());
   }
+  // 6. The forced pitch oscillation: the rate and attitude columns at one frequency.
+  if (const auto& po = c.derivatives.pitch_oscillation; po.enabled) {
+    if (!s.derivatives.table.has_longitudinal)
+      throw InputError(c.path, "derivatives.pitch_oscillation",
+                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"" +
+                           c.derivatives.columns + "\"",
+                       "columns = \"longitudinal\" or \"all\"");
+    t = clock_type::now();
+    ns::PitchOscillationSpec spec;
+    spec.amplitude = po.amplitude_deg * std::numbers::pi / 180;
+    spec.period_wingbeats = po.period_wingbeats;
+    spec.periods = po.periods;
+    spec.transient_wingbeats = po.transient_wingbeats;
+    s.pitch_oscillation = pitch_oscillation_study(cfd.pitch_oscillation(c.insect, s.trim.kinematics, spec),
+                                                  s.derivatives.table);
+    stage(fmt::format("pitch oscillation ({} wingbeats)", spec.wingbeats()), t, 1);
+    s.notices.push_back(
+        "pitch oscillation: not yet validated. The body turns through a grid fixed in space, so its cut cells change "
+        "with the angle; on coarse grids the response then depends on the amplitude (docs/theory/cfd-stability.md, "
+        "\"Forced pitch oscillation\"). Compare two amplitudes before using its columns");
+    const auto& ps = *s.pitch_oscillation;
+    for (int i : {0, 2, 4}) {
+      const std::size_t k = std::size_t(i);
+      const double se = ps.rate_se_nd[k];
+      if (se >= 0 && std::abs(ps.rate_last_nd[k] - ps.rate_nd[k]) > 2 * se && ps.run.spec.periods > 1)
+        s.notices.push_back(fmt::format(
+            "pitch oscillation: {}q of the last period alone ({:+.4g}) differs from the fit over all {} periods "
+            "({:+.4g} ± {:.2g}) by more than twice its standard error: the response may not be periodic yet (more "
+            "transient_wingbeats or periods)", row_names[i], ps.rate_last_nd[k], ps.run.spec.periods, ps.rate_nd[k], se));
+    }
+  }
   s.history = cfd.run(c.insect, s.trim.kinematics, BodyMotion{}, AeroRunOptions{});
   s.runs = cfd.records();
   s.reference = cfd.reference_cycles();
   s.wall_time_s = std::chrono::duration<double>(clock_type::now() - t0).count();
   return s;
 }
+
+namespace {
+
+nlohmann::json pitch_oscillation_json(const PitchOscillationStudy& p) {
+  using nlohmann::json;
+  const ns::PitchOscillationSpec& sp = p.run.spec;
+  json wb = json::array();
+  for (std::size_t k = 0; k < p.run.wingbeats.size(); ++k) {
+    const auto& w = p.run.wingbeats[k];
+    wb.push_back({{"wingbeat", k + 1}, {"theta_rad", w.theta}, {"q_rad_s", w.rate},
+                  {"dF_N", {w.difference.force.x(), w.difference.force.y(), w.difference.force.z()}},
+                  {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}}});
+  }
+  json der = json::object();
+  for (int i : {0, 2, 4}) {
+    const std::size_t k = std::size_t(i);
+    der[std::string(1, row_names[i]) + "q"] = {{"value", p.rate_nd[k]}, {"standard_error", p.rate_se_nd[k]},
+                                               {"last_period", p.rate_last_nd[k]}};
+    der[std::string(1, row_names[i]) + "theta"] = {{"value", p.theta_nd[k]}, {"standard_error", p.theta_se_nd[k]},
+                                                   {"last_period", p.theta_last_nd[k]}};
+  }
+  return {{"amplitude_deg", sp.amplitude * 180 / std::numbers::pi},
+          {"period_wingbeats", sp.period_wingbeats},
+          {"transient_wingbeats", sp.transient()},
+          {"periods", sp.periods},
+          {"omega_rad_s", p.run.omega},
+          {"omega_nd", p.omega_nd},
+          {"wall_s", p.run.wall_seconds},
+          {"reused", p.run.reused},
+          {"derivatives_nd", der},
+          {"wingbeats", wb},
+          {"modes", p.modes ? to_json(*p.modes) : json()},
+          {"modes_steady_rate", p.modes_steady_rate ? to_json(*p.modes_steady_rate) : json()}};
+}
+
+}  // namespace
 
 nlohmann::json cfd_study_json(const CfdStudy& s) {
   using nlohmann::json;
@@ -379,9 +489,67 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
           {"derivatives_by_mechanism", by_mechanism},
           {"floquet_longitudinal", floq(s.floquet_longitudinal)},
           {"floquet_lateral", floq(s.floquet_lateral)},
+          {"pitch_oscillation", s.pitch_oscillation ? pitch_oscillation_json(*s.pitch_oscillation) : json()},
           {"notices", s.notices},
           {"wall_s", s.wall_time_s}};
 }
+
+namespace {
+
+std::string pitch_oscillation_markdown(const PitchOscillationStudy& p, const DerivativeTable& cfd,
+                                       const DerivativeTable& qs) {
+  const ns::PitchOscillationSpec& sp = p.run.spec;
+  std::string m = fmt::format(
+      "\nForced pitch oscillation (docs/theory/cfd-stability.md): theta = {:.3g} deg x sin(omega t) about O, period {} "
+      "wingbeats (omega c/U = {:.4f}), {} wingbeats left out, then {} periods fitted (wingbeat means of the loads' "
+      "difference from the continued hover against those of theta and q). Non-dimensional as the table; the rate "
+      "column beside the steady-rate runs' and the quasi-steady model's:\n\n"
+      "| derivative | oscillation ± standard error | last period alone | steady rate (table) | quasi-steady |\n"
+      "|---|---|---|---|---|\n",
+      sp.amplitude * 180 / std::numbers::pi, sp.period_wingbeats, p.omega_nd, sp.transient(), sp.periods);
+  auto se = [](double v) { return v >= 0 ? fmt::format(" ± {:.4f}", v) : std::string(); };
+  for (int i : {0, 2, 4}) {
+    const std::size_t k = std::size_t(i);
+    m += fmt::format("| {}q | {:+.4f}{} | {:+.4f} | {:+.4f} | {:+.4f} |\n", row_names[i], p.rate_nd[k],
+                     se(p.rate_se_nd[k]), p.rate_last_nd[k], cfd.nd(i, 4), qs.nd(i, 4));
+  }
+  for (int i : {0, 2, 4}) {
+    const std::size_t k = std::size_t(i);
+    m += fmt::format("| {}θ (per rad) | {:+.4f}{} | {:+.4f} | (0: a steady attitude changes nothing in still air) | 0 "
+                     "|\n", row_names[i], p.theta_nd[k], se(p.theta_se_nd[k]), p.theta_last_nd[k]);
+  }
+  if (p.modes && p.modes_steady_rate) {
+    m += "\nLongitudinal modes with the oscillation's q column and aerodynamic theta column, beside those of the table "
+         "with its steady-rate q column (growth per wingbeat Re(lambda)/f; period in wingbeats):\n\n"
+         "| mode (oscillation columns) | growth per wingbeat | period | mode (steady-rate table) | growth | period |\n"
+         "|---|---|---|---|---|---|\n";
+    const auto& a = p.modes->modes;
+    const auto& b = p.modes_steady_rate->modes;
+    for (std::size_t i = 0; i < std::max(a.size(), b.size()); ++i) {
+      auto cell = [](const std::vector<Mode>& v, std::size_t j) {
+        if (j >= v.size()) return std::string("| | | ");
+        return fmt::format("| {} | {:+.4f} | {} ", v[j].name, v[j].eigenvalue_per_wingbeat.real(),
+                           v[j].period_wingbeats ? fmt::format("{:.2f}", *v[j].period_wingbeats) : std::string("-"));
+      };
+      m += cell(a, i) + cell(b, i) + "|\n";
+    }
+    for (const Mode& md : a)
+      if (md.period_wingbeats && md.eigenvalue_per_wingbeat.real() > -0.5) {
+        const double ratio = *md.period_wingbeats / sp.period_wingbeats;
+        m += fmt::format("\nThe {} has a period of {:.2f} wingbeats, {:.2f} x the oscillation's: {}\n", md.name,
+                         *md.period_wingbeats, ratio,
+                         std::abs(ratio - 1) <= 0.2
+                             ? "the derivatives were measured near the mode's own frequency."
+                             : fmt::format("derivatives of a lagging wake depend on the frequency; rerun with "
+                                           "period_wingbeats = {} for this mode (the next step of a p-k iteration).",
+                                           std::max(2, int(std::lround(*md.period_wingbeats)))));
+        break;
+      }
+  }
+  return m;
+}
+
+}  // namespace
 
 std::string cfd_study_markdown(const CfdStudy& s) {
   std::string m = "## Navier-Stokes (CFD) stability\n\n";
@@ -456,6 +624,7 @@ std::string cfd_study_markdown(const CfdStudy& s) {
     for (const auto& mu : (*f)->multipliers) m += fmt::format(" {} (|mu| {:.4f});", fmt_c(mu), std::abs(mu));
     m += "\n";
   }
+  if (s.pitch_oscillation) m += pitch_oscillation_markdown(*s.pitch_oscillation, s.derivatives.table, s.qs.table);
   for (const auto& note : s.notices) m += "\n- " + note;
   return m + "\n";
 }

@@ -3,6 +3,7 @@
 // Floquet analysis of that A(t); every run from one kept periodic hover state (cfd/navier_stokes/cfd_model.hpp),
 // resumable from the run cache. Theory and limits: docs/theory/cfd-stability.md.
 #pragma once
+#include <array>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -12,6 +13,7 @@
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "stability/floquet.hpp"
+#include "stability/modes.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
@@ -38,6 +40,19 @@ void quasi_steady_start(const Case& c, const AeroModel& qs_model, TrimResult& tr
 std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const std::vector<ns::CfdRunRecord>& runs,
                                                const std::vector<int>& columns);
 
+// [derivatives.pitch_oscillation]: the forced pitch oscillation's fits (cfd/navier_stokes/oscillation.hpp),
+// non-dimensional as the table (rows 0 .. 5 = X Y Z L M N): the rate derivative per q+ = q c / U and the attitude
+// derivative per rad, with their standard errors (-1: none) and the last period's fit alone; and the longitudinal
+// modes of the table with its q column replaced by the oscillation's and its aerodynamic theta column added.
+struct PitchOscillationStudy {
+  ns::PitchOscillationResult run;
+  double omega_nd = 0;  // omega c / U
+  std::array<double, 6> rate_nd{}, rate_se_nd{}, rate_last_nd{}, theta_nd{}, theta_se_nd{}, theta_last_nd{};
+  std::optional<StabilityAnalysis> modes, modes_steady_rate;  // with the oscillation's columns; the table as it is
+};
+// The non-dimensional fits and both mode sets from a finished oscillation and the CFD table (longitudinal columns).
+PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& run, const DerivativeTable& table);
+
 struct CfdStudy {
   TrimResult qs_trim;            // quasi-steady trim of the case's [trim] parameters: the starting point
   DerivativeResult qs_at_start;  // quasi-steady derivatives at the quasi-steady trim (resolution check)
@@ -47,6 +62,7 @@ struct CfdStudy {
   PhaseDerivatives phase;        // CFD phase-resolved derivatives, from the same runs
   std::vector<MechanismSplit> by_mechanism;  // with [aero.cfd.fpm]: the velocity derivatives split by mechanism
   std::optional<FloquetAnalysis> floquet_longitudinal, floquet_lateral;
+  std::optional<PitchOscillationStudy> pitch_oscillation;  // with [derivatives.pitch_oscillation]
   WrenchHistory history;         // CFD loads over the trimmed wingbeat
   std::vector<ns::CfdRunRecord> runs;
   std::vector<ns::CycleRecord> reference;  // the continued hover's cycle means

@@ -764,6 +764,20 @@ Case load_case(const std::string& path) {
   if (c.derivatives.relative_step > 0.5) der.fail("relative_step", "too large", "a relative step below 0.5");
   c.derivatives.columns = der.string("columns", false, c.derivatives.columns, {"all", "longitudinal", "lateral"});
   c.derivatives.relative_rate_step = der.positive_in("relative_rate_step", 0.0, 1e-6, 0.5, "a rate step x c / U");
+  if (Section po = der.sub("pitch_oscillation", false); po.present()) {
+    auto& o = c.derivatives.pitch_oscillation;
+    o.enabled = true;
+    o.amplitude_deg = po.positive_in("amplitude_deg", o.amplitude_deg, 0.01, 15, "an amplitude in degrees");
+    o.period_wingbeats = po.integer_or("period_wingbeats", o.period_wingbeats, 2, 1000);
+    o.periods = po.integer_or("periods", o.periods, 1, 100);
+    o.transient_wingbeats = po.integer_or("transient_wingbeats", o.period_wingbeats, 0, 10000);
+    po.reject_unknown();
+    if (c.aero.model != "cfd")
+      throw InputError(path, "derivatives.pitch_oscillation",
+                       "a forced pitch oscillation is a CFD run (the quasi-steady model has no wake to lag), but "
+                       "[aero] model is \"" + c.aero.model + "\"",
+                       "[aero] model = \"cfd\" (or remove [derivatives.pitch_oscillation])");
+  }
   der.reject_unknown();
 
   Section fl = top.sub("flight", false);

@@ -128,6 +128,16 @@ struct DerivativeSettings {
   // (rate_step c / U x 2 Phi r2 / c rad): in a CFD run that lasts several wingbeats a smaller rate step than the
   // velocity step keeps the rotation small (the CFD study prints it and warns above 5 deg per wingbeat).
   double relative_rate_step = 0;
+  // [derivatives.pitch_oscillation] (CFD model only): a forced pitch oscillation about the kept hover, whose fit gives
+  // the pitch-rate and pitch-attitude derivatives at one frequency (cfd/navier_stokes/oscillation.hpp). Present =
+  // enabled.
+  struct PitchOscillation {
+    bool enabled = false;
+    double amplitude_deg = 2;       // theta0
+    int period_wingbeats = 10;      // wingbeats per oscillation period
+    int periods = 2;                // periods fitted
+    int transient_wingbeats = -1;   // wingbeats left out of the fit first (-1: one period)
+  } pitch_oscillation;
 };
 
 // [flight]: nonlinear free flight (flapstab fly; flight/free_flight.hpp).

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <fmt/format.h>
@@ -568,74 +569,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                                                   ? fmt::format(" (its state after wingbeat {} is kept in {})", k - 1, partial.h5)
                                                   : std::string()));
       }
-      // The reference at the same wingbeat: one process at a time extends it (a campaign), after taking what the
-      // others added.
-      std::optional<FileLock> ref_lock;
-      if (int(st.ref_cycles.size()) < k && !cache_.empty()) {
-        claim(ref_lock, file("reference.lock"), "the continued hover", say);
-        const auto r = read_json(file("reference.json"), st.key);
-        if (r && r->at("cycles").size() > st.ref_cycles.size()) {
-          st.ref_cycles = cycles_from(r->at("cycles"));
-          st.ref_rows.clear();
-          for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));
-          st.ref_partition = partitions_from(*r, st.ref_cycles.size());
-          st.ref_sim.reset();
-          st.ref_fpm.reset();
-          st.ref_on_file = true;
-        }
-      }
-      while (int(st.ref_cycles.size()) < k) {
-        if (!st.ref_sim) {
-          st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan);
-          std::optional<SimulationState> end;  // the cached reference's state after its last wingbeat
-          const long end_step = st.hover_state.step + long(st.ref_cycles.size()) * n;
-          if (st.ref_on_file && !st.ref_cycles.empty() && fs::exists(file("reference.h5"))) {
-            const CheckpointReader ck(file("reference.h5"));
-            end = read_state(ck, plan_grid(st.plan).shape());
-            if (end->step != end_step) end.reset();
-          }
-          if (!end && !st.ref_cycles.empty()) {
-            // A state that does not belong to the kept cycles (killed between the two writes): the reference is made
-            // again from the hover (the same steps, the same numbers).
-            say(fmt::format("  the kept continued hover ({}) does not end at its {} wingbeats; it is made again\n",
-                            file("reference.h5"), st.ref_cycles.size()));
-            st.ref_cycles.clear();
-            st.ref_rows.clear();
-            st.ref_partition.clear();
-          }
-          st.ref_on_file = false;
-          st.ref_sim->restore(end ? *end : st.hover_state);
-          if (s.fpm.enabled) st.ref_fpm = std::make_unique<fpm::FpmObserver>(*st.ref_sim, s.fpm, std::string());
-        }
-        std::vector<CfdLoadRow> rr;
-        const double ref_from = st.ref_sim->time();
-        for (int i = 0; i < n; ++i) {
-          const StepReport r = st.ref_sim->advance();
-          rr.push_back(r.row);
-          if (st.ref_fpm) st.ref_fpm->on_step(*st.ref_sim, r);
-        }
-        st.ref_partition.resize(st.ref_cycles.size());
-        if (st.ref_fpm)
-          st.ref_partition.push_back(partition_means(*st.ref_fpm, ref_from, st.ref_sim->time(), st.plan.dt));
-        else
-          st.ref_partition.emplace_back();
-        CycleRecord cr;
-        cr.cycle = int(st.ref_cycles.size()) + 1;
-        cr.mean = mean_of(rr);
-        if (!st.ref_cycles.empty()) cr.change = cycle_change(cr.mean, st.ref_cycles.back().mean, st.hover_settings);
-        st.ref_cycles.push_back(cr);
-        st.ref_rows.push_back(rr);
-        say(fmt::format("  reference wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N\n", cr.cycle,
-                        cr.mean.force.x(), cr.mean.force.y(), cr.mean.force.z()));
-        if (!cache_.empty()) {
-          write_state(file("reference.h5"), st.ref_sim->state(), {}, {{"key", st.key}});
-          nlohmann::json rows = nlohmann::json::array();
-          for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
-          write_file_atomic(file("reference.json"),
-                            nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows},
-                                           {"partition", partitions_json(st.ref_partition)}}.dump(1) + "\n");
-        }
-      }
+      continue_reference(k);
       phist.resize(std::size_t(k - 1));
       if (obs) phist.push_back(partition_means(*obs, from, sim.time(), plan.dt));
       else phist.emplace_back();
@@ -712,6 +646,215 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   st.records.push_back(rec);
   st.answers[run_key] = diff;
   return answer_of(diff);
+}
+
+
+void CfdModel::continue_reference(int k) const {
+  State& st = *st_;
+  const CfdSettings& s = case_.aero.cfd;
+  const int n = st.plan.steps_per_cycle;
+  auto file = [&](const std::string& name) { return cache_ + "/" + name; };
+  auto say = [&](const std::string& line) {
+    if (log_) *log_ << line << std::flush;
+  };
+  // The reference at the same wingbeat: one process at a time extends it (a campaign), after taking what the
+  // others added.
+  std::optional<FileLock> ref_lock;
+  if (int(st.ref_cycles.size()) < k && !cache_.empty()) {
+    claim(ref_lock, file("reference.lock"), "the continued hover", say);
+    const auto r = read_json(file("reference.json"), st.key);
+    if (r && r->at("cycles").size() > st.ref_cycles.size()) {
+      st.ref_cycles = cycles_from(r->at("cycles"));
+      st.ref_rows.clear();
+      for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));
+      st.ref_partition = partitions_from(*r, st.ref_cycles.size());
+      st.ref_sim.reset();
+      st.ref_fpm.reset();
+      st.ref_on_file = true;
+    }
+  }
+  while (int(st.ref_cycles.size()) < k) {
+    if (!st.ref_sim) {
+      st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan);
+      std::optional<SimulationState> end;  // the cached reference's state after its last wingbeat
+      const long end_step = st.hover_state.step + long(st.ref_cycles.size()) * n;
+      if (st.ref_on_file && !st.ref_cycles.empty() && fs::exists(file("reference.h5"))) {
+        const CheckpointReader ck(file("reference.h5"));
+        end = read_state(ck, plan_grid(st.plan).shape());
+        if (end->step != end_step) end.reset();
+      }
+      if (!end && !st.ref_cycles.empty()) {
+        // A state that does not belong to the kept cycles (killed between the two writes): the reference is made
+        // again from the hover (the same steps, the same numbers).
+        say(fmt::format("  the kept continued hover ({}) does not end at its {} wingbeats; it is made again\n",
+                        file("reference.h5"), st.ref_cycles.size()));
+        st.ref_cycles.clear();
+        st.ref_rows.clear();
+        st.ref_partition.clear();
+      }
+      st.ref_on_file = false;
+      st.ref_sim->restore(end ? *end : st.hover_state);
+      if (s.fpm.enabled) st.ref_fpm = std::make_unique<fpm::FpmObserver>(*st.ref_sim, s.fpm, std::string());
+    }
+    std::vector<CfdLoadRow> rr;
+    const double ref_from = st.ref_sim->time();
+    for (int i = 0; i < n; ++i) {
+      const StepReport r = st.ref_sim->advance();
+      rr.push_back(r.row);
+      if (st.ref_fpm) st.ref_fpm->on_step(*st.ref_sim, r);
+    }
+    st.ref_partition.resize(st.ref_cycles.size());
+    if (st.ref_fpm)
+      st.ref_partition.push_back(partition_means(*st.ref_fpm, ref_from, st.ref_sim->time(), st.plan.dt));
+    else
+      st.ref_partition.emplace_back();
+    CycleRecord cr;
+    cr.cycle = int(st.ref_cycles.size()) + 1;
+    cr.mean = mean_of(rr);
+    if (!st.ref_cycles.empty()) cr.change = cycle_change(cr.mean, st.ref_cycles.back().mean, st.hover_settings);
+    st.ref_cycles.push_back(cr);
+    st.ref_rows.push_back(rr);
+    say(fmt::format("  reference wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N\n", cr.cycle,
+                    cr.mean.force.x(), cr.mean.force.y(), cr.mean.force.z()));
+    if (!cache_.empty()) {
+      write_state(file("reference.h5"), st.ref_sim->state(), {}, {{"key", st.key}});
+      nlohmann::json rows = nlohmann::json::array();
+      for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
+      write_file_atomic(file("reference.json"),
+                        nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows},
+                                       {"partition", partitions_json(st.ref_partition)}}.dump(1) + "\n");
+    }
+  }
+}
+
+
+PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const Kinematics& kin,
+                                                   const PitchOscillationSpec& spec) const {
+  if (!(spec.amplitude > 0) || spec.period_wingbeats < 2 || spec.periods < 1 || spec.transient() < 0)
+    throw std::invalid_argument("CfdModel::pitch_oscillation: amplitude > 0, period >= 2 wingbeats, periods >= 1");
+  run(insect, kin, BodyMotion{}, {});  // the kept hover (made, or read from the cache)
+  State& st = *st_;
+  if (fingerprint(insect, kin) != st.base_print)
+    throw SolveError("cfd model: a pitch oscillation runs about the base hover's kinematics only");
+  check_pitch_oscillation_room(st.plan, spec, case_.path);
+  auto file = [&](const std::string& name) { return cache_ + "/" + name; };
+  auto say = [&](const std::string& line) {
+    if (log_) *log_ << line << std::flush;
+  };
+  const int n = st.plan.steps_per_cycle;
+  const double T = st.plan.period;
+  const int needed = spec.wingbeats();
+  // The run's wingbeats do not depend on how many are fitted: one key per amplitude and period, extended on demand.
+  const std::string key =
+      fnv1a64_hex(st.key + "|pitch-oscillation|" + fmt::format("{:.17g} {}", spec.amplitude, spec.period_wingbeats));
+  const std::string json_file = file("pitch_" + key + ".json"), h5_file = file("pitch_" + key + ".h5");
+  PitchOscillationResult r;
+  r.spec = spec;
+  r.omega = 2 * std::numbers::pi / (spec.period_wingbeats * T);
+  const std::string label = fmt::format("pitch oscillation of {:.3g} deg, period {} wingbeats",
+                                        spec.amplitude * 180 / std::numbers::pi, spec.period_wingbeats);
+  std::optional<FileLock> lock;
+  if (!cache_.empty()) claim(lock, file("pitch_" + key + ".lock"), "the " + label, say);
+  double earlier_seconds = 0;
+  std::optional<SimulationState> kept;
+  if (const auto j = cache_.empty() ? std::nullopt : read_json(json_file, key)) {
+    for (const auto& w : j->at("wingbeats")) {
+      OscillationWingbeat o;
+      o.theta = w.at("theta_rad").get<double>();
+      o.rate = w.at("q_rad_s").get<double>();
+      for (int i = 0; i < 3; ++i) {
+        o.difference.force[i] = w.at("dF_N").at(std::size_t(i)).get<double>();
+        o.difference.moment[i] = w.at("dM_N_m").at(std::size_t(i)).get<double>();
+      }
+      r.wingbeats.push_back(o);
+    }
+    earlier_seconds = j->at("wall_s").get<double>();
+    if (int(r.wingbeats.size()) < needed) {
+      if (fs::exists(h5_file)) {
+        const CheckpointReader ck(h5_file);
+        kept = read_state(ck, plan_grid(st.plan).shape());
+      }
+      if (!kept || kept->step != j->at("step").get<long>()) {
+        say(fmt::format("  warning: {} and {} do not belong together; the {} starts again from the hover\n", h5_file,
+                        json_file, label));
+        kept.reset();
+        r.wingbeats.clear();
+        earlier_seconds = 0;
+      }
+    }
+  }
+  if (int(r.wingbeats.size()) >= needed) {
+    r.wingbeats.resize(std::size_t(needed));
+    r.reused = true;
+    r.wall_seconds = earlier_seconds;
+    say(fmt::format("cfd model: {} reused from {}\n", label, json_file));
+  } else {
+    Case c = case_;
+    c.insect = insect;
+    Simulation sim(c, kin, BodyMotion{}, st.plan);
+    const double start = st.hover_state.time;
+    sim.set_part_source([&sim, &spec, T, start](double t) {
+      const BodyFrame b = pitch_oscillation_frame(spec, T, t - start);
+      std::vector<PartState> out;
+      for (const PartState& rel : sim.prescribed_parts(t)) out.push_back(part_in_grid(b, rel));
+      return out;
+    });
+    sim.restore(kept ? *kept : st.hover_state);
+    say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} periods fitted)\n",
+                    label, spec.amplitude * r.omega,
+                    kept ? fmt::format("its wingbeat {}", r.wingbeats.size()) : std::string("the kept hover state"),
+                    needed, spec.transient(), spec.periods));
+    const auto t0 = clock_type::now();
+    for (int k = int(r.wingbeats.size()) + 1; k <= needed; ++k) {
+      std::vector<Wrench> loads;
+      std::vector<double> times;
+      try {
+        for (int i = 0; i < n; ++i) {
+          const StepReport rep = sim.advance();
+          const Wrench w = rep.row.total();
+          loads.push_back(wrench_on_body(pitch_oscillation_frame(spec, T, rep.time - start), w.force, w.moment));
+          times.push_back(rep.time);
+        }
+      } catch (const StepFailure& e) {
+        throw SolveError(fmt::format("cfd model: the {} diverged in its wingbeat {} (step {}): {}", label, k, e.step(),
+                                     e.why()));
+      }
+      continue_reference(k);
+      const auto& ref = st.ref_rows[std::size_t(k - 1)];
+      OscillationWingbeat o;
+      for (int i = 0; i < n; ++i) {
+        const PitchAngle a = pitch_oscillation_angle(spec, T, times[std::size_t(i)] - start);
+        o.theta += a.theta / n;
+        o.rate += a.rate / n;
+        o.difference += (1.0 / n) * (loads[std::size_t(i)] + (-1.0) * ref[std::size_t(i)].total());
+      }
+      r.wingbeats.push_back(o);
+      say(fmt::format("  wingbeat {:>2}: theta {:+.3f} deg, q {:+.4g} rad/s; difference from the hover dF = ({:+.4e}, "
+                      "{:+.4e}, {:+.4e}) N, dM = ({:+.4e}, {:+.4e}, {:+.4e}) N m\n",
+                      k, o.theta * 180 / std::numbers::pi, o.rate, o.difference.force.x(), o.difference.force.y(),
+                      o.difference.force.z(), o.difference.moment.x(), o.difference.moment.y(),
+                      o.difference.moment.z()));
+      r.wall_seconds = earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count();
+      if (!cache_.empty()) {
+        fs::create_directories(cache_);
+        nlohmann::json wj = nlohmann::json::array();
+        for (const auto& w : r.wingbeats)
+          wj.push_back({{"theta_rad", w.theta},
+                        {"q_rad_s", w.rate},
+                        {"dF_N", {w.difference.force.x(), w.difference.force.y(), w.difference.force.z()}},
+                        {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}}});
+        write_state(h5_file, sim.state(), {}, {{"key", key}});
+        write_file_atomic(json_file, nlohmann::json{{"key", key}, {"label", label}, {"step", sim.state().step},
+                                                    {"amplitude_rad", spec.amplitude},
+                                                    {"period_wingbeats", spec.period_wingbeats},
+                                                    {"wingbeats", wj}, {"wall_s", r.wall_seconds}}
+                                                     .dump(1) + "\n");
+      }
+    }
+    say(fmt::format("cfd model: {} done: {} wingbeats in {:.1f} s\n", label, needed, r.wall_seconds));
+  }
+  fit_pitch_oscillation(r);
+  return r;
 }
 
 }  // namespace flapstab::ns

@@ -27,6 +27,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+#include "cfd/navier_stokes/oscillation.hpp"
 #include "cfd/navier_stokes/periodic.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
 #include "core/aero_model.hpp"
@@ -87,7 +88,16 @@ class CfdModel final : public AeroModel {
   const CfdRunRecord* hover_record() const { return records().empty() ? nullptr : &records().front(); }
   const std::vector<CycleRecord>& reference_cycles() const;
 
+  // A forced pitch oscillation about the kept hover state (oscillation.hpp; the hover's kinematics only, made first
+  // if need be): the body turned about O in the hover's grid, its loads in body axes against the continued hover,
+  // per wingbeat, and their fits. With a cache directory the run keeps its state and wingbeats after every wingbeat
+  // (pitch_<key>.h5 / .json): a killed run resumes, and a later call asking for more periods continues it.
+  PitchOscillationResult pitch_oscillation(const Insect& insect, const Kinematics& kin,
+                                           const PitchOscillationSpec& spec) const;
+
  private:
+  // Extends the continued hover to k wingbeats (shared with other processes through the cache).
+  void continue_reference(int k) const;
   struct State;
   Case case_;
   std::ostream* log_;

@@ -6,6 +6,8 @@
 #include "cfd/aero_factory.hpp"
 #include "cfd/derivatives.hpp"
 #include "core/case_file.hpp"
+#include "core/derivative_table.hpp"
+#include "stability/lti.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
@@ -96,6 +98,42 @@ TEST(CfdStudySplit, PairsTheColumnsRunsAndScalesLikeTheTable) {
   EXPECT_EQ(s[1].row, 4);
   EXPECT_NEAR(s[1].kinematic, (0.06 - 0.02) / 0.2 * 2.0 / 0.3, 1e-12);
   EXPECT_NEAR(s[1].added_mass(), 0.75 * s[1].kinematic, 1e-12);
+}
+
+// The forced pitch oscillation's fits enter the longitudinal system where the table's q column and gravity's theta
+// column are (docs/theory/cfd-stability.md, "Forced pitch oscillation"): rate fits equal to the table's q column
+// (dimensional: times (1/2 rho U^2 S_t) c/U, and c more for M) with no attitude derivative give the table's system
+// and modes; an attitude derivative M_theta adds M_theta+ / Iy+ at A(q, theta), X_theta+ / m+ at A(u, theta).
+TEST(CfdStudyPitchOscillation, ItsColumnsEnterTheLongitudinalSystem) {
+  const DerivativeTable t =
+      read_derivative_table(std::string(FLAPSTAB_SOURCE_DIR) + "/data/examples/derivative_table_bumblebee.toml");
+  ASSERT_TRUE(t.has_longitudinal);
+  const ReferenceQuantities& ref = t.reference;
+  ns::PitchOscillationResult r;
+  r.spec.amplitude = 0.035;
+  r.spec.period_wingbeats = 10;
+  r.omega = 2 * 3.14159265358979 * ref.frequency / 10;
+  for (int i = 0; i < 6; ++i) {
+    const double scale = i < 3 ? ref.force_scale() : ref.moment_scale();
+    r.fit[std::size_t(i)].rate = t.nd(i, 4) * scale * ref.time_scale();
+    r.last_period[std::size_t(i)] = r.fit[std::size_t(i)];
+  }
+  const PitchOscillationStudy same = pitch_oscillation_study(r, t);
+  EXPECT_NEAR(same.omega_nd, r.omega * ref.time_scale(), 1e-15);
+  EXPECT_NEAR(same.rate_nd[4], t.nd(4, 4), 1e-12 * std::abs(t.nd(4, 4)));
+  ASSERT_TRUE(same.modes && same.modes_steady_rate);
+  const Eigen::MatrixXd A0 = same.modes_steady_rate->system_matrix_nd;
+  EXPECT_LT((same.modes->system_matrix_nd - A0).norm(), 1e-12 * A0.norm());
+  ASSERT_EQ(same.modes->modes.size(), same.modes_steady_rate->modes.size());
+  EXPECT_NEAR(same.modes->modes[0].eigenvalue_nd.real(), same.modes_steady_rate->modes[0].eigenvalue_nd.real(), 1e-12);
+  r.fit[4].theta = 0.3 * ref.moment_scale();  // M_theta+ = 0.3 per rad
+  r.fit[0].theta = -0.2 * ref.force_scale();  // X_theta+ = -0.2 per rad
+  const PitchOscillationStudy lag = pitch_oscillation_study(r, t);
+  const NonDimensionalParameters q = nondimensional_parameters(t);
+  EXPECT_NEAR(lag.theta_nd[4], 0.3, 1e-12);
+  EXPECT_NEAR(lag.modes->system_matrix_nd(2, 3) - A0(2, 3), 0.3 / q.Iyy, 1e-12 * (1 + 0.3 / q.Iyy));
+  EXPECT_NEAR(lag.modes->system_matrix_nd(0, 3) - A0(0, 3), -0.2 / q.m, 1e-12 * (1 + 0.2 / q.m));
+  EXPECT_EQ(lag.modes->system_matrix_nd(1, 3), A0(1, 3));
 }
 
 }  // namespace

@@ -92,8 +92,38 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"derivative_columns", "[trim]\n", "[derivatives]\ncolumns = \"diagonal\"\n[trim]\n",
                               "derivatives.columns"},
                       BadCase{"rate_step", "[trim]\n", "[derivatives]\nrelative_rate_step = 0.9\n[trim]\n",
-                              "derivatives.relative_rate_step"}),
+                              "derivatives.relative_rate_step"},
+                      // A forced pitch oscillation is a CFD run: refused with the quasi-steady model.
+                      BadCase{"pitch_oscillation_qs", "[trim]\n", "[derivatives.pitch_oscillation]\n[trim]\n",
+                              "derivatives.pitch_oscillation"}),
     [](const ::testing::TestParamInfo<BadCase>& i) { return std::string(i.param.label); });
+
+// [derivatives.pitch_oscillation] with the CFD model: present = enabled, the defaults (the transient one period of
+// whatever period is given), and the ranges refused with the key named.
+TEST(CaseFile, PitchOscillationTakesItsDefaultsAndRefusesOutOfRangeValues) {
+  const std::string cfd = replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"cfd\"");
+  EXPECT_FALSE(load_case(write_temp("po_none.toml", cfd)).derivatives.pitch_oscillation.enabled);
+  const auto po = [&](const std::string& keys) {
+    return load_case(write_temp("po.toml", replace(cfd, "[trim]\n", "[derivatives.pitch_oscillation]\n" + keys +
+                                                                         "[trim]\n")))
+        .derivatives.pitch_oscillation;
+  };
+  const auto d = po("");
+  EXPECT_TRUE(d.enabled);
+  EXPECT_EQ(d.amplitude_deg, 2.0);
+  EXPECT_EQ(d.period_wingbeats, 10);
+  EXPECT_EQ(d.periods, 2);
+  EXPECT_EQ(d.transient_wingbeats, 10);
+  const auto e = po("amplitude_deg = 1.5\nperiod_wingbeats = 7\nperiods = 3\n");
+  EXPECT_EQ(e.amplitude_deg, 1.5);
+  EXPECT_EQ(e.transient_wingbeats, 7);
+  EXPECT_EQ(po("period_wingbeats = 7\ntransient_wingbeats = 0\n").transient_wingbeats, 0);
+  for (const auto& [keys, key] : {std::pair<std::string, std::string>{"amplitude_deg = 20.0\n", "amplitude_deg"},
+                                  {"period_wingbeats = 1\n", "period_wingbeats"},
+                                  {"periods = 0\n", "periods"},
+                                  {"period = 10\n", "period"}})
+    testing::expect_input_error([&] { po(keys); }, "derivatives.pitch_oscillation." + key);
+}
 
 TEST(CaseFile, DerivativeColumnsDefaultToAllAndTakeAPlane) {
   const Case d = load_case(write_temp("columns_default.toml", valid_case_text()));

@@ -1,0 +1,105 @@
+// Forced pitch oscillation of the hovering insect (oscillation.hpp).
+#include "cfd/navier_stokes/oscillation.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <fmt/format.h>
+#include "core/errors.hpp"
+#include "core/rotation.hpp"
+
+namespace flapstab::ns {
+
+PitchAngle pitch_oscillation_angle(const PitchOscillationSpec& spec, double T, double tau) {
+  const double w = 2 * std::numbers::pi / (spec.period_wingbeats * T);
+  const double s = std::sin(w * tau), c = std::cos(w * tau);
+  return {spec.amplitude * s, spec.amplitude * w * c, -spec.amplitude * w * w * s};
+}
+
+BodyFrame pitch_oscillation_frame(const PitchOscillationSpec& spec, double T, double tau) {
+  const PitchAngle a = pitch_oscillation_angle(spec, T, tau);
+  BodyFrame b;
+  b.rotation = euler321(0, a.theta, 0);
+  b.rate = Vec3(0, a.rate, 0);  // theta' = q when roll is zero
+  b.rate_rate = Vec3(0, a.rate_rate, 0);
+  return b;
+}
+
+void check_pitch_oscillation_room(const CfdPlan& plan, const PitchOscillationSpec& spec, const std::string& path) {
+  Vec3 lo = plan.swept_lo, hi = plan.swept_hi;
+  constexpr int angles = 16;  // a corner's extreme can lie between the two end angles
+  for (int i = 0; i <= angles; ++i) {
+    const Mat3 R = euler321(0, spec.amplitude * (2.0 * i / angles - 1), 0);
+    for (int corner = 0; corner < 8; ++corner) {
+      Vec3 x;
+      for (int d = 0; d < 3; ++d) x[d] = (corner >> d & 1) ? plan.swept_hi[d] : plan.swept_lo[d];
+      const Vec3 y = R * x;
+      lo = lo.cwiseMin(y);
+      hi = hi.cwiseMax(y);
+    }
+  }
+  const double out = std::max((hi - plan.fine_hi).maxCoeff(), (plan.fine_lo - lo).maxCoeff());
+  if (out > 0)
+    throw InputError(path, "derivatives.pitch_oscillation.amplitude_deg",
+                     fmt::format("the insect turned by +-{:.3g} deg about O sweeps {:.3g} m beyond the fine box of the "
+                                 "hover's grid", spec.amplitude * 180 / std::numbers::pi, out),
+                     "a smaller amplitude, or a larger [aero.cfd] fine_margin_R");
+}
+
+OscillationFit fit_oscillation(const std::vector<double>& theta, const std::vector<double>& rate,
+                               const std::vector<double>& y) {
+  const std::size_t m = y.size();
+  if (theta.size() != m || rate.size() != m || m < 3)
+    throw SolveError("pitch oscillation: a fit needs at least three wingbeats with theta, q and the load");
+  const Eigen::Index rows = Eigen::Index(m);
+  Eigen::MatrixXd X(rows, 3);
+  Eigen::VectorXd Y(rows);
+  for (std::size_t k = 0; k < m; ++k) {
+    X(Eigen::Index(k), 0) = theta[k];
+    X(Eigen::Index(k), 1) = rate[k];
+    X(Eigen::Index(k), 2) = 1;
+    Y(Eigen::Index(k)) = y[k];
+  }
+  // Columns scaled to unit norm first: theta (rad) and q (rad/s) differ by orders of magnitude.
+  const Eigen::Vector3d scale = X.colwise().norm().transpose().cwiseMax(1e-300);
+  const Eigen::MatrixXd Xs = X * scale.cwiseInverse().asDiagonal();
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Xs);
+  if (qr.rank() < 3) throw SolveError("pitch oscillation: theta, q and a constant are not independent over the fit");
+  const Eigen::Vector3d beta = qr.solve(Y).cwiseQuotient(scale);
+  OscillationFit f;
+  f.theta = beta(0);
+  f.rate = beta(1);
+  f.constant = beta(2);
+  const Eigen::VectorXd res = Y - X * beta;
+  f.rms = std::sqrt(res.squaredNorm() / double(m));
+  if (m >= 4) {
+    const double s2 = res.squaredNorm() / double(m - 3);
+    const Eigen::Matrix3d cov = s2 * (X.transpose() * X).inverse();
+    f.theta_se = std::sqrt(cov(0, 0));
+    f.rate_se = std::sqrt(cov(1, 1));
+  }
+  return f;
+}
+
+void fit_pitch_oscillation(PitchOscillationResult& r) {
+  const int first = r.spec.transient(), P = r.spec.period_wingbeats;
+  const int n = int(r.wingbeats.size());
+  if (n < first + P)
+    throw SolveError(fmt::format("pitch oscillation: {} wingbeats, fewer than the transient ({}) and one period ({})", n,
+                                 first, P));
+  auto fit = [&](int from, int to, int component) {  // wingbeats from+1 .. to (1-based)
+    std::vector<double> th, q, y;
+    for (int k = from; k < to; ++k) {
+      const OscillationWingbeat& w = r.wingbeats[std::size_t(k)];
+      th.push_back(w.theta);
+      q.push_back(w.rate);
+      y.push_back(component < 3 ? w.difference.force[component] : w.difference.moment[component - 3]);
+    }
+    return fit_oscillation(th, q, y);
+  };
+  for (int c = 0; c < 6; ++c) {
+    r.fit[std::size_t(c)] = fit(first, n, c);
+    r.last_period[std::size_t(c)] = fit(n - P, n, c);
+  }
+}
+
+}  // namespace flapstab::ns
