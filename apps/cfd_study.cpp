@@ -393,7 +393,8 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         s.notices.push_back(fmt::format(
             "pitch oscillation: {}q of the last period alone ({:+.4g}) differs from the fit over all {} periods "
             "({:+.4g} ± {:.2g}) by more than twice its standard error: the response may not be periodic yet (more "
-            "transient_wingbeats or periods)", row_names[i], ps.rate_last_nd[k], ps.run.spec.periods, ps.rate_nd[k], se));
+            "transient_wingbeats or periods)",
+            row_names[i], ps.rate_last_nd[k], ps.run.spec.periods, ps.rate_nd[k], se));
     }
   }
   s.history = cfd.run(c.insect, s.trim.kinematics, BodyMotion{}, AeroRunOptions{});

@@ -800,7 +800,8 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
       return out;
     });
     sim.restore(kept ? *kept : st.hover_state);
-    say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} periods fitted)\n",
+    say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} periods "
+                    "fitted)\n",
                     label, spec.amplitude * r.omega,
                     kept ? fmt::format("its wingbeat {}", r.wingbeats.size()) : std::string("the kept hover state"),
                     needed, spec.transient(), spec.periods));

@@ -84,8 +84,8 @@ void fit_pitch_oscillation(PitchOscillationResult& r) {
   const int first = r.spec.transient(), P = r.spec.period_wingbeats;
   const int n = int(r.wingbeats.size());
   if (n < first + P)
-    throw SolveError(fmt::format("pitch oscillation: {} wingbeats, fewer than the transient ({}) and one period ({})", n,
-                                 first, P));
+    throw SolveError(
+        fmt::format("pitch oscillation: {} wingbeats, fewer than the transient ({}) and one period ({})", n, first, P));
   auto fit = [&](int from, int to, int component) {  // wingbeats from+1 .. to (1-based)
     std::vector<double> th, q, y;
     for (int k = from; k < to; ++k) {

@@ -15,6 +15,7 @@
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "common/case_text.hpp"
+#include "common/model_case.hpp"
 #include "common/expect_error.hpp"
 #include "core/errors.hpp"
 
@@ -23,20 +24,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The test moth on a tiny grid (4 cells per mean chord), a gentle wingbeat (stroke +-10 deg, pitch 90 +- 10 deg)
-// at Re = 20, 60 steps per wingbeat: a wingbeat costs about a second.
-Case model_case(const std::string& name, const std::string& extra) {
-  const std::string keys =
-      "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
-      "below_R = 0.5\nsteps_per_cycle = 60\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\n"
-      "threads = 1\nreynolds = 20\n" + extra;
-  std::string text = testing::replace(testing::valid_cfd_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
-  text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
-                          "sin_deg = [-10.0]");
-  if (extra.find("[aero.cfd.fpm]") != std::string::npos)  // the case file accepts the table with the CFD model only
-    text = testing::replace(text, "model = \"quasi-steady\"", "model = \"cfd\"");
-  return load_case(testing::write_temp(name, text));
-}
+using testing::model_case;
 
 std::string fresh_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("flapstab_model_" + std::to_string(::getpid())) / name;

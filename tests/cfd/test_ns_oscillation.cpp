@@ -13,6 +13,7 @@
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/oscillation.hpp"
 #include "common/case_text.hpp"
+#include "common/model_case.hpp"
 #include "common/expect_error.hpp"
 #include "core/errors.hpp"
 
@@ -22,17 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double deg = std::numbers::pi / 180;
 
-// The test moth on a tiny grid (4 cells per mean chord) at Re 20, 60 steps per wingbeat (as test_ns_cfd_model.cpp).
-Case oscillation_case(const std::string& name, const std::string& extra) {
-  const std::string keys =
-      "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
-      "below_R = 0.5\nsteps_per_cycle = 60\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\n"
-      "threads = 1\nreynolds = 20\n" + extra;
-  std::string text = testing::replace(testing::valid_cfd_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n");
-  text = testing::replace(testing::replace(text, "cos_deg = [-60.0]", "cos_deg = [-10.0]"), "sin_deg = [-55.0]",
-                          "sin_deg = [-10.0]");
-  return load_case(testing::write_temp(name, text));
-}
+// The test moth on a tiny grid at Re 20 (common/model_case.hpp).
+using testing::model_case;
 
 std::string fresh_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("flapstab_oscillation_" + std::to_string(::getpid())) / name;
@@ -113,7 +105,7 @@ TEST(PitchOscillation, AnInsectTurnedBeyondTheFineBoxIsAnInputError) {
 // continues the run instead of starting again, and gives the uninterrupted run's wingbeats bit for bit; asking for
 // no more than was run reuses it without a step.
 TEST(CfdModel, PitchOscillationIsContinuedFromItsCacheBitForBit) {
-  const Case c = oscillation_case("osc_cache.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
+  const Case c = model_case("osc_cache.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
   const std::string dir = fresh_dir("cache"), clean = fresh_dir("clean");
   PitchOscillationSpec one;
   one.amplitude = 2 * deg;
@@ -154,7 +146,7 @@ TEST(CfdModel, PitchOscillationIsContinuedFromItsCacheBitForBit) {
 // weight (and of weight x mean chord). A response linear in the amplitude is not asserted: in a grid fixed in space
 // the turned body's discretisation makes it depend on the amplitude (docs/validation.md, "Forced pitch oscillation").
 TEST(CfdModel, PitchOscillationOfVanishingAmplitudeIsTheHover) {
-  const Case c = oscillation_case("osc_zero.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
+  const Case c = model_case("osc_zero.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
   const CfdModel model(c, nullptr);
   PitchOscillationSpec s;
   s.amplitude = 1e-7 * deg;
@@ -187,7 +179,7 @@ TEST(CfdModelStudy, DISABLED_PitchOscillationProbe) {
   };
   const std::vector<double> amplitudes = list("PROBE_AMPLITUDES", {1, 2}), periods = list("PROBE_PERIODS", {4});
   const int fitted = int(list("PROBE_FIT_PERIODS", {2}).at(0));
-  const Case c = oscillation_case("osc_probe.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 6\n"
+  const Case c = model_case("osc_probe.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 6\n"
                                                     "perturbation_tolerance = 0.001\n");
   const CfdModel model(c, nullptr);
   model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
