@@ -777,6 +777,11 @@ Case load_case(const std::string& path) {
                        "a forced pitch oscillation is a CFD run (the quasi-steady model has no wake to lag), but "
                        "[aero] model is \"" + c.aero.model + "\"",
                        "[aero] model = \"cfd\" (or remove [derivatives.pitch_oscillation])");
+    if (c.aero.cfd.trim_iterations > 0)
+      throw InputError(path, "derivatives.pitch_oscillation",
+                       fmt::format("the oscillation runs about the kept hover's kinematics, which a CFD trim moves "
+                                   "([aero.cfd] trim_iterations = {})", c.aero.cfd.trim_iterations),
+                       "[aero.cfd] trim_iterations = 0 (or remove [derivatives.pitch_oscillation])");
   }
   der.reject_unknown();
 

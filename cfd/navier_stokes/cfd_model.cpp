@@ -732,10 +732,11 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
                                                    const PitchOscillationSpec& spec) const {
   if (!(spec.amplitude > 0) || spec.period_wingbeats < 2 || spec.periods < 1 || spec.transient() < 0)
     throw std::invalid_argument("CfdModel::pitch_oscillation: amplitude > 0, period >= 2 wingbeats, periods >= 1");
+  // Checked before anything runs: other kinematics would first make a perturbed run of their own.
+  if (st_ && fingerprint(insect, kin) != st_->base_print)
+    throw SolveError("cfd model: a pitch oscillation runs about the base hover's kinematics only");
   run(insect, kin, BodyMotion{}, {});  // the kept hover (made, or read from the cache)
   State& st = *st_;
-  if (fingerprint(insect, kin) != st.base_print)
-    throw SolveError("cfd model: a pitch oscillation runs about the base hover's kinematics only");
   check_pitch_oscillation_room(st.plan, spec, case_.path);
   auto file = [&](const std::string& name) { return cache_ + "/" + name; };
   auto say = [&](const std::string& line) {

@@ -101,7 +101,10 @@ INSTANTIATE_TEST_SUITE_P(
 // [derivatives.pitch_oscillation] with the CFD model: present = enabled, the defaults (the transient one period of
 // whatever period is given), and the ranges refused with the key named.
 TEST(CaseFile, PitchOscillationTakesItsDefaultsAndRefusesOutOfRangeValues) {
-  const std::string cfd = replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"cfd\"");
+  // The oscillation runs about the kept hover's kinematics: no CFD trim (trim_iterations = 0, below).
+  const std::string cfd =
+      replace(replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"cfd\""), "[trim]\n",
+              "[aero.cfd]\ntrim_iterations = 0\n\n[trim]\n");
   EXPECT_FALSE(load_case(write_temp("po_none.toml", cfd)).derivatives.pitch_oscillation.enabled);
   const auto po = [&](const std::string& keys) {
     return load_case(write_temp("po.toml", replace(cfd, "[trim]\n", "[derivatives.pitch_oscillation]\n" + keys +
@@ -123,6 +126,12 @@ TEST(CaseFile, PitchOscillationTakesItsDefaultsAndRefusesOutOfRangeValues) {
                                   {"periods = 0\n", "periods"},
                                   {"period = 10\n", "period"}})
     testing::expect_input_error([&] { po(keys); }, "derivatives.pitch_oscillation." + key);
+  // It runs about the kept hover's kinematics, which a CFD trim would move.
+  const std::string trimmed = replace(replace(cfd, "trim_iterations = 0", "trim_iterations = 2"), "[trim]\n",
+                                     "[derivatives.pitch_oscillation]\n[trim]\n");
+  const std::string what = testing::expect_input_error([&] { load_case(write_temp("po_trim.toml", trimmed)); },
+                                                       "derivatives.pitch_oscillation");
+  EXPECT_NE(what.find("trim_iterations = 0"), std::string::npos) << what;
 }
 
 TEST(CaseFile, DerivativeColumnsDefaultToAllAndTakeAPlane) {
