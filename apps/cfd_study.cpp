@@ -174,6 +174,20 @@ std::optional<std::string> rate_step_warning(const Case& c, double rate_step, do
       rate_step, turn, turn * c.aero.cfd.max_cycles, c.aero.cfd.max_cycles, h * 5 / turn);
 }
 
+namespace {
+
+// [derivatives.pitch_oscillation] as the CFD model's spec: one builder for the plan and the run.
+ns::PitchOscillationSpec oscillation_spec(const DerivativeSettings::PitchOscillation& po) {
+  ns::PitchOscillationSpec spec;
+  spec.amplitude = po.amplitude_deg * std::numbers::pi / 180;
+  spec.period_wingbeats = po.period_wingbeats;
+  spec.periods = po.periods;
+  spec.transient_wingbeats = po.transient_wingbeats;
+  return spec;
+}
+
+}  // namespace
+
 PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& run, const DerivativeTable& table) {
   PitchOscillationStudy p;
   p.run = run;
@@ -269,13 +283,20 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         "above leaves out (`flapstab cfd {} --dry-run` prints it; 1.3-1.4 on the hawkmoth example)\n",
         cs.fpm.samples_per_cycle, c.path);
 
-  if (const auto& po = c.derivatives.pitch_oscillation; log && po.enabled) {
-    const int wb = (po.transient_wingbeats < 0 ? po.period_wingbeats : po.transient_wingbeats) +
-                   po.periods * po.period_wingbeats;
-    *log << fmt::format("cfd study: then a forced pitch oscillation of {:g} deg, {} wingbeats per period: {} wingbeats "
-                        "beside the continued hover, up to {} more\n",
-                        po.amplitude_deg, po.period_wingbeats, wb, ns::fmt_seconds(2 * wb * per_cycle))
-         << std::flush;
+  if (const auto& po = c.derivatives.pitch_oscillation; po.enabled) {
+    if (c.derivatives.columns == "lateral")  // no longitudinal table for the oscillation's columns to complete
+      throw InputError(c.path, "derivatives.pitch_oscillation",
+                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"" +
+                           c.derivatives.columns + "\"",
+                       "columns = \"longitudinal\" or \"all\"");
+    const ns::PitchOscillationSpec spec = oscillation_spec(po);
+    ns::check_pitch_oscillation_room(s.plan, spec, c.path);  // before any run, not after the table
+    const int wb = spec.wingbeats();
+    if (log)
+      *log << fmt::format("cfd study: then a forced pitch oscillation of {:g} deg, {} wingbeats per period: {} "
+                          "wingbeats beside the continued hover, up to {} more\n",
+                          po.amplitude_deg, po.period_wingbeats, wb, ns::fmt_seconds(2 * wb * per_cycle))
+           << std::flush;
   }
 
   // 3. CFD trim from the quasi-steady one.
@@ -367,17 +388,8 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
   }
   // 6. The forced pitch oscillation: the rate and attitude columns at one frequency.
   if (const auto& po = c.derivatives.pitch_oscillation; po.enabled) {
-    if (!s.derivatives.table.has_longitudinal)
-      throw InputError(c.path, "derivatives.pitch_oscillation",
-                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"" +
-                           c.derivatives.columns + "\"",
-                       "columns = \"longitudinal\" or \"all\"");
     t = clock_type::now();
-    ns::PitchOscillationSpec spec;
-    spec.amplitude = po.amplitude_deg * std::numbers::pi / 180;
-    spec.period_wingbeats = po.period_wingbeats;
-    spec.periods = po.periods;
-    spec.transient_wingbeats = po.transient_wingbeats;
+    const ns::PitchOscillationSpec spec = oscillation_spec(po);
     s.pitch_oscillation = pitch_oscillation_study(cfd.pitch_oscillation(c.insect, s.trim.kinematics, spec),
                                                   s.derivatives.table);
     stage(fmt::format("pitch oscillation ({} wingbeats)", spec.wingbeats()), t, 1);
@@ -535,7 +547,7 @@ std::string pitch_oscillation_markdown(const PitchOscillationStudy& p, const Der
       m += cell(a, i) + cell(b, i) + "|\n";
     }
     for (const Mode& md : a)
-      if (md.period_wingbeats && md.eigenvalue_per_wingbeat.real() > -0.5) {
+      if (md.period_wingbeats) {  // the least damped oscillatory mode (modes come most unstable first)
         const double ratio = *md.period_wingbeats / sp.period_wingbeats;
         m += fmt::format("\nThe {} has a period of {:.2f} wingbeats, {:.2f} x the oscillation's: {}\n", md.name,
                          *md.period_wingbeats, ratio,

@@ -777,6 +777,10 @@ Case load_case(const std::string& path) {
                        "a forced pitch oscillation is a CFD run (the quasi-steady model has no wake to lag), but "
                        "[aero] model is \"" + c.aero.model + "\"",
                        "[aero] model = \"cfd\" (or remove [derivatives.pitch_oscillation])");
+    if (c.derivatives.columns == "lateral")
+      throw InputError(path, "derivatives.pitch_oscillation",
+                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"lateral\"",
+                       "columns = \"longitudinal\" or \"all\" (or remove [derivatives.pitch_oscillation])");
     if (c.aero.cfd.trim_iterations > 0)
       throw InputError(path, "derivatives.pitch_oscillation",
                        fmt::format("the oscillation runs about the kept hover's kinematics, which a CFD trim moves "

@@ -757,6 +757,9 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   std::optional<FileLock> lock;
   if (!cache_.empty()) claim(lock, file("pitch_" + key + ".lock"), "the " + label, say);
   double earlier_seconds = 0;
+  // The run's file is kept when it ends (a later study may extend it): its state after the last wingbeat and the
+  // wingbeats so far, read back as a partial run's.
+  const PartialRun kept_run{json_file, h5_file};
   std::optional<SimulationState> kept;
   if (const auto j = cache_.empty() ? std::nullopt : read_json(json_file, key)) {
     for (const auto& w : j->at("wingbeats")) {
@@ -771,14 +774,11 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     }
     earlier_seconds = j->at("wall_s").get<double>();
     if (int(r.wingbeats.size()) < needed) {
-      if (fs::exists(h5_file)) {
-        const CheckpointReader ck(h5_file);
-        kept = read_state(ck, plan_grid(st.plan).shape());
-      }
-      if (!kept || kept->step != j->at("step").get<long>()) {
-        say(fmt::format("  warning: {} and {} do not belong together; the {} starts again from the hover\n", h5_file,
-                        json_file, label));
-        kept.reset();
+      const std::string restart = "the " + label + " starts again from the hover";
+      if (auto part = kept_run.read(key, plan_grid(st.plan).shape(), say, restart.c_str())) {
+        kept = std::move(part->first);
+      } else {
+        if (!fs::exists(h5_file)) say(fmt::format("  warning: {} has no state beside it; {}\n", json_file, restart));
         r.wingbeats.clear();
         earlier_seconds = 0;
       }
@@ -845,12 +845,9 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
                         {"q_rad_s", w.rate},
                         {"dF_N", {w.difference.force.x(), w.difference.force.y(), w.difference.force.z()}},
                         {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}}});
-        write_state(h5_file, sim.state(), {}, {{"key", key}});
-        write_file_atomic(json_file, nlohmann::json{{"key", key}, {"label", label}, {"step", sim.state().step},
-                                                    {"amplitude_rad", spec.amplitude},
-                                                    {"period_wingbeats", spec.period_wingbeats},
-                                                    {"wingbeats", wj}, {"wall_s", r.wall_seconds}}
-                                                     .dump(1) + "\n");
+        kept_run.keep(key, sim.state(),
+                      {{"label", label}, {"amplitude_rad", spec.amplitude}, {"period_wingbeats", spec.period_wingbeats},
+                       {"wingbeats", wj}, {"wall_s", r.wall_seconds}});
       }
     }
     say(fmt::format("cfd model: {} done: {} wingbeats in {:.1f} s\n", label, needed, r.wall_seconds));

@@ -132,6 +132,13 @@ TEST(CaseFile, PitchOscillationTakesItsDefaultsAndRefusesOutOfRangeValues) {
   const std::string what = testing::expect_input_error([&] { load_case(write_temp("po_trim.toml", trimmed)); },
                                                        "derivatives.pitch_oscillation");
   EXPECT_NE(what.find("trim_iterations = 0"), std::string::npos) << what;
+  // It completes a longitudinal table: refused at load with a lateral one, not after the table's runs.
+  const std::string lateral = replace(cfd, "[trim]\n", "[derivatives]\ncolumns = \"lateral\"\n\n"
+                                                       "[derivatives.pitch_oscillation]\n[trim]\n");
+  const std::string why = testing::expect_input_error([&] { load_case(write_temp("po_lateral.toml", lateral)); },
+                                                      "derivatives.pitch_oscillation");
+  EXPECT_NE(why.find("columns"), std::string::npos) << why;
+  EXPECT_NO_THROW(load_case(write_temp("po_all.toml", replace(lateral, "\"lateral\"", "\"all\""))));
 }
 
 TEST(CaseFile, DerivativeColumnsDefaultToAllAndTakeAPlane) {
