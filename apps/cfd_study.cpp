@@ -289,9 +289,7 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
                        "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"" +
                            c.derivatives.columns + "\"",
                        "columns = \"longitudinal\" or \"all\"");
-    const ns::PitchOscillationSpec spec = oscillation_spec(po);
-    ns::check_pitch_oscillation_room(s.plan, spec, c.path);  // before any run, not after the table
-    const int wb = spec.wingbeats();
+    const int wb = oscillation_spec(po).wingbeats();
     if (log)
       *log << fmt::format("cfd study: then a forced pitch oscillation of {:g} deg, {} wingbeats per period: {} "
                           "wingbeats beside the continued hover, up to {} more\n",
@@ -393,10 +391,6 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
     s.pitch_oscillation = pitch_oscillation_study(cfd.pitch_oscillation(c.insect, s.trim.kinematics, spec),
                                                   s.derivatives.table);
     stage(fmt::format("pitch oscillation ({} wingbeats)", spec.wingbeats()), t, 1);
-    s.notices.push_back(
-        "pitch oscillation: not yet validated. The body turns through a grid fixed in space, so its cut cells change "
-        "with the angle; on coarse grids the response then depends on the amplitude (docs/theory/cfd-stability.md, "
-        "\"Forced pitch oscillation\"). Compare two amplitudes before using its columns");
     const auto& ps = *s.pitch_oscillation;
     for (int i : {0, 2, 4}) {
       const std::size_t k = std::size_t(i);

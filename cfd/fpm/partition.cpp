@@ -212,7 +212,7 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
 std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, const std::vector<PartState>& states,
                                                      double rho) {
   if (!geometry_) throw std::logic_error("force partitioning: partition() before update()");
-  if (solver.options().frame_rate.squaredNorm() > 0)
+  if (solver.options().rotating())
     throw std::invalid_argument("force partitioning needs an inertial grid frame (this run's grid turns with the body)");
   const Grid& g = *grid_;
   const FluidGeometry& o = *geometry_;

@@ -737,7 +737,6 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     throw SolveError("cfd model: a pitch oscillation runs about the base hover's kinematics only");
   run(insect, kin, BodyMotion{}, {});  // the kept hover (made, or read from the cache)
   State& st = *st_;
-  check_pitch_oscillation_room(st.plan, spec, case_.path);
   auto file = [&](const std::string& name) { return cache_ + "/" + name; };
   auto say = [&](const std::string& line) {
     if (log_) *log_ << line << std::flush;
@@ -747,7 +746,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   const int needed = spec.wingbeats();
   // The run's wingbeats do not depend on how many are fitted: one key per amplitude and period, extended on demand.
   const std::string key =
-      fnv1a64_hex(st.key + "|pitch-oscillation|" + fmt::format("{:.17g} {}", spec.amplitude, spec.period_wingbeats));
+      fnv1a64_hex(st.key + "|pitch-oscillation, body frame|" + fmt::format("{:.17g} {}", spec.amplitude, spec.period_wingbeats));
   const std::string json_file = file("pitch_" + key + ".json"), h5_file = file("pitch_" + key + ".h5");
   PitchOscillationResult r;
   r.spec = spec;
@@ -792,15 +791,20 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   } else {
     Case c = case_;
     c.insect = insect;
-    Simulation sim(c, kin, BodyMotion{}, st.plan);
+    // The grid turns with the body, which keeps its cells: a frame at rate (0, q(t), 0) about O, whose Coriolis and
+    // Euler accelerations the solver carries, with the still air's far field -Omega(t) x r on the faces.
     const double start = st.hover_state.time;
-    sim.set_part_source([&sim, &spec, T, start](double t) {
-      const BodyFrame b = pitch_oscillation_frame(spec, T, t - start);
-      std::vector<PartState> out;
-      for (const PartState& rel : sim.prescribed_parts(t)) out.push_back(part_in_grid(b, rel));
-      return out;
-    });
-    sim.restore(kept ? *kept : st.hover_state);
+    SimulationOptions options;
+    options.frame_rotation.rate = [spec, T, start](double t) {
+      return Vec3(0, pitch_oscillation_angle(spec, T, t - start).rate, 0);
+    };
+    options.frame_rotation.rate_rate = [spec, T, start](double t) {
+      return Vec3(0, pitch_oscillation_angle(spec, T, t - start).rate_rate, 0);
+    };
+    Simulation sim(c, kin, BodyMotion{}, st.plan, options);
+    // From the hover, whose far field is at rest: the body starts turning at q(0) impulsively.
+    if (kept) sim.restore(*kept);
+    else sim.restore(st.hover_state, BodyMotion{});
     say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} periods "
                     "fitted)\n",
                     label, spec.amplitude * r.omega,
@@ -813,8 +817,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
       try {
         for (int i = 0; i < n; ++i) {
           const StepReport rep = sim.advance();
-          const Wrench w = rep.row.total();
-          loads.push_back(wrench_on_body(pitch_oscillation_frame(spec, T, rep.time - start), w.force, w.moment));
+          loads.push_back(rep.row.total());  // the grid's axes are the body's
           times.push_back(rep.time);
         }
       } catch (const StepFailure& e) {

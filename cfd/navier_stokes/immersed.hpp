@@ -41,12 +41,15 @@ struct PartState {
   // Rate of the grid's frame (rad/s) when it rotates (SolverOptions::frame_rate): the apparent acceleration of a
   // point then carries the Coriolis term 2 Omega x v (the centrifugal one sits in the reduced pressure).
   Vec3 frame_rate = Vec3::Zero();
+  // dOmega/dt when the frame's rate changes (SolverOptions::frame_rate_at): the Euler term dOmega/dt x x, with x
+  // measured from the grid's origin (the frame's centre of rotation).
+  Vec3 frame_rate_rate = Vec3::Zero();
   // Apparent acceleration of the material point at x in the grid's frame: a + alpha x r + omega x (omega x r)
-  // (rigid body, r = x - centre) + 2 Omega x v(x).
+  // (rigid body, r = x - centre) + 2 Omega x v(x) + dOmega/dt x x.
   Vec3 acceleration_at(const Vec3& x) const {
     const Vec3 r = x - velocity.centre;
     return acceleration + angular_acceleration.cross(r) + velocity.omega.cross(velocity.omega.cross(r)) +
-           2 * frame_rate.cross(velocity.at(x));
+           2 * frame_rate.cross(velocity.at(x)) + frame_rate_rate.cross(x);
   }
 };
 // A prescribed motion as a function of time (pose and velocity; the accelerations are taken by central

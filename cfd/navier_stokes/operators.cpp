@@ -198,6 +198,27 @@ void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, Vecto
   }
 }
 
+void add_rotation(const Grid& g, VectorField& u, const Vec3& w) {
+  if (w.squaredNorm() == 0) return;
+  const Shape s = g.shape();
+  for (int d = 0; d < 3; ++d) {
+    const int e1 = (d + 1) % 3, e2 = (d + 2) % 3;
+    // (w x r)_d = w_e1 r_e2 - w_e2 r_e1, with r_e at the d-face the cell centre's (e != d)
+    const double* c1 = g.axis[std::size_t(e1)].xc.data();
+    const double* c2 = g.axis[std::size_t(e2)].xc.data();
+    real* v = u[d].data();
+    int hi[3] = {s.nx, s.ny, s.nz};
+    if (!g.axis[std::size_t(d)].periodic) hi[d] += 1;
+#pragma omp parallel for schedule(static) if (threaded(s))
+    for (int k = 1; k <= hi[2]; ++k)
+      for (int j = 1; j <= hi[1]; ++j)
+        for (int i = 1; i <= hi[0]; ++i) {
+          const int I[3] = {i, j, k};
+          v[s(i, j, k)] += real(w[e1] * c2[I[e2]] - w[e2] * c1[I[e1]]);
+        }
+  }
+}
+
 void divergence(const Grid& g, const VectorField& u, Field& div, double scale) {
 #pragma omp parallel for schedule(static) if (threaded(div.shape()))
   for (int k = 1; k <= div.shape().nz; ++k) divergence_plane(g, k, u, div, real(scale));

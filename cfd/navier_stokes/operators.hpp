@@ -24,6 +24,10 @@ void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& N
 void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, VectorField& ustar, const Vec3& omega,
                   double dt, const StageCoefficients& c);
 
+// u += w x r on the unknowns add_coriolis sweeps (r from the grid's origin): a rigid rotation's velocity field, e.g.
+// the integral over a stage of the Euler acceleration -dOmega/dt x r of a frame whose rate changes.
+void add_rotation(const Grid& g, VectorField& u, const Vec3& w);
+
 // div = scale * D u on the cells.
 void divergence(const Grid& g, const VectorField& u, Field& div, double scale);
 

@@ -5,7 +5,6 @@
 #include <numbers>
 #include <fmt/format.h>
 #include "core/errors.hpp"
-#include "core/rotation.hpp"
 
 namespace flapstab::ns {
 
@@ -13,36 +12,6 @@ PitchAngle pitch_oscillation_angle(const PitchOscillationSpec& spec, double T, d
   const double w = 2 * std::numbers::pi / (spec.period_wingbeats * T);
   const double s = std::sin(w * tau), c = std::cos(w * tau);
   return {spec.amplitude * s, spec.amplitude * w * c, -spec.amplitude * w * w * s};
-}
-
-BodyFrame pitch_oscillation_frame(const PitchOscillationSpec& spec, double T, double tau) {
-  const PitchAngle a = pitch_oscillation_angle(spec, T, tau);
-  BodyFrame b;
-  b.rotation = euler321(0, a.theta, 0);
-  b.rate = Vec3(0, a.rate, 0);  // theta' = q when roll is zero
-  b.rate_rate = Vec3(0, a.rate_rate, 0);
-  return b;
-}
-
-void check_pitch_oscillation_room(const CfdPlan& plan, const PitchOscillationSpec& spec, const std::string& path) {
-  Vec3 lo = plan.swept_lo, hi = plan.swept_hi;
-  constexpr int angles = 16;  // a corner's extreme can lie between the two end angles
-  for (int i = 0; i <= angles; ++i) {
-    const Mat3 R = euler321(0, spec.amplitude * (2.0 * i / angles - 1), 0);
-    for (int corner = 0; corner < 8; ++corner) {
-      Vec3 x;
-      for (int d = 0; d < 3; ++d) x[d] = (corner >> d & 1) ? plan.swept_hi[d] : plan.swept_lo[d];
-      const Vec3 y = R * x;
-      lo = lo.cwiseMin(y);
-      hi = hi.cwiseMax(y);
-    }
-  }
-  const double out = std::max((hi - plan.fine_hi).maxCoeff(), (plan.fine_lo - lo).maxCoeff());
-  if (out > 0)
-    throw InputError(path, "derivatives.pitch_oscillation.amplitude_deg",
-                     fmt::format("the insect turned by +-{:.3g} deg about O sweeps {:.3g} m beyond the fine box of the "
-                                 "hover's grid", spec.amplitude * 180 / std::numbers::pi, out),
-                     "a smaller amplitude, or a larger [aero.cfd] fine_margin_R");
 }
 
 OscillationFit fit_oscillation(const std::vector<double>& theta, const std::vector<double>& rate,

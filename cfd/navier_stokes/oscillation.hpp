@@ -1,9 +1,10 @@
 // Forced pitch oscillation of the hovering insect: the pitch-rate and pitch-attitude derivatives at one frequency
 // (docs/theory/cfd-stability.md, "Forced pitch oscillation").
 //
-// The body turns about O in a grid fixed in space, theta(tau) = theta0 sin(omega tau), tau the time since the kept
-// hover state, omega = 2 pi f / P (P wingbeats per oscillation period), with its wings flapping relative to it as in
-// the hover. Its loads in body axes, minus the continued hover's at the same step, are averaged per wingbeat (d_k)
+// The body turns about O, theta(tau) = theta0 sin(omega tau), tau the time since the kept hover state,
+// omega = 2 pi f / P (P wingbeats per oscillation period), with its wings flapping relative to it as in the hover.
+// The grid turns with it (a frame at rate (0, q(tau), 0): SimulationOptions::frame_rotation), so the body keeps its
+// cells. Its loads in body axes, minus the continued hover's at the same step, are averaged per wingbeat (d_k)
 // and fitted, after the transient wingbeats, by least squares to
 //     d_k = a theta_k + b q_k + c,
 // theta_k, q_k the same wingbeat's means of theta and q = dtheta/dt at the load samples. b is the rate derivative
@@ -16,8 +17,6 @@
 #include <array>
 #include <string>
 #include <vector>
-#include "cfd/navier_stokes/free_body.hpp"
-#include "cfd/navier_stokes/plan.hpp"
 #include "core/types.hpp"
 
 namespace flapstab::ns {
@@ -36,14 +35,6 @@ struct PitchAngle {
   double theta = 0, rate = 0, rate_rate = 0;
 };
 PitchAngle pitch_oscillation_angle(const PitchOscillationSpec& spec, double T, double tau);
-
-// The body's frame at tau: turned by theta about O (3-2-1 Euler angles; the grid's axes are the hover's stability
-// axes, x forward, z down), at rest at O.
-BodyFrame pitch_oscillation_frame(const PitchOscillationSpec& spec, double T, double tau);
-
-// InputError (case file `path`, key derivatives.pitch_oscillation.amplitude_deg) when the volume the parts sweep in
-// the hover, turned by +-theta0 about O, leaves the plan's fine box.
-void check_pitch_oscillation_room(const CfdPlan& plan, const PitchOscillationSpec& spec, const std::string& path);
 
 // Least-squares fit y_k = a x1_k + b x2_k + c with the standard errors of a and b from the residuals (-1 with fewer
 // than 4 points); rms: the residuals' root mean square.

@@ -22,13 +22,18 @@ namespace {
 constexpr double rk3_cfl_limit = 1.7320508075688772;
 
 // The still air far away seen from the body's frame: the uniform stream -V, plus -Omega x r when it turns.
-Boundaries far_field(const BodyMotion& motion) {
+// With a frame rotation, -V - Omega(t) x r.
+Boundaries far_field(const BodyMotion& motion, const SimulationOptions::FrameRotation& rotation) {
   Boundaries bc;
   const Vec3 stream = -motion.velocity, rate = motion.rate;
   for (int f = 0; f < 6; ++f) {
     bc.face[std::size_t(f)].type = BC::velocity;
     if (stream.norm() > 0) bc.face[std::size_t(f)].velocity = [stream](double) { return stream; };
-    if (rate.norm() > 0)
+    if (rotation.rate)
+      bc.face[std::size_t(f)].field = [stream, w = rotation.rate](double t, const Vec3& x) {
+        return Vec3(stream - w(t).cross(x));
+      };
+    else if (rate.norm() > 0)
       bc.face[std::size_t(f)].field = [stream, rate](double, const Vec3& x) { return Vec3(stream - rate.cross(x)); };
   }
   bc.face[std::size_t(face(2, 1))] = FaceCondition{BC::outflow, {}, {}};
@@ -54,12 +59,14 @@ VolumeMoments volume_moments(const TriangleMesh& m) {
   return v;
 }
 
-SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m, const std::string& path) {
+SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m,
+                             const SimulationOptions::FrameRotation& rotation, const std::string& path) {
   SolverOptions so;
   so.nu = plan.nu;
   so.cfl = s.cfl;
   so.dt = plan.dt;
   so.frame_rate = m.rate;
+  so.frame_rate_at = rotation.rate;
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
   if (plan.sponge_width > 0) {
@@ -90,13 +97,27 @@ struct Simulation::Impl : StageHooks {
   std::vector<std::optional<VolumeMoments>> closed;
   int parts = 3;  // parts of the geometry (insect_part_count): the loads' rows carry as many
   Simulation::PartSource source;  // a driver's part kinematics (free flight), else the prescribed motion
-  std::vector<PartState> parts_at(double t) const { return source ? source(t) : motion.parts(t); }
+  SimulationOptions::FrameRotation rotation;  // a frame whose rate changes in time, else none
+  std::vector<PartState> parts_at(double t) const {
+    if (source) return source(t);
+    std::vector<PartState> out = motion.parts(t);
+    if (rotation.rate) {
+      const Vec3 w = rotation.rate(t), wdot = rotation.rate_rate(t);
+      for (PartState& p : out) p.frame_rate = w, p.frame_rate_rate = wdot;
+    }
+    return out;
+  }
+  // The frame's rate at t (rad/s): the rotation's, or the steady body rate's.
+  Vec3 frame_rate(double t) const { return rotation.rate ? rotation.rate(t) : motion.body_motion().rate; }
 
   double rho = 0;
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
       : config(c.insect, kin), motion(config, m),
-        solver(plan_grid(plan), far_field(m), solver_options(c.aero.cfd, plan, m, c.path)), parts(insect_part_count(c.insect)),
-        rho(plan.rho) {
+        solver(plan_grid(plan), far_field(m, o.frame_rotation),
+               solver_options(c.aero.cfd, plan, m, o.frame_rotation, c.path)),
+        parts(insect_part_count(c.insect)), rotation(o.frame_rotation), rho(plan.rho) {
+    if (rotation.rate && (!rotation.rate_rate || m.rate.squaredNorm() > 0))
+      throw std::logic_error("Simulation: a frame rotation needs rate and rate_rate, and no steady body rate");
     if (o.initial_velocity) solver.initialise([&](double x, double y, double z) { return o.initial_velocity(x, y, z); });
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
@@ -135,7 +156,7 @@ struct Simulation::Impl : StageHooks {
     if (!ib) return r;
     const auto loads = exchange ? ib->exchange_loads(solver, Vec3::Zero()) : ib->loads(solver, Vec3::Zero());
     const auto states = parts_at(tb);
-    const Vec3& W = motion.body_motion().rate;
+    const Vec3 W = frame_rate(tb);
     for (int i = 0; i < parts; ++i) {
       const PartLoads& L = loads[std::size_t(i)];
       auto& q = r.part[i];
@@ -191,7 +212,7 @@ std::vector<PartState> Simulation::prescribed_parts(double t) const {
 }
 void Simulation::set_part_source(PartSource source) {
   Impl& m = *impl_;
-  if (source && (motion_.velocity.squaredNorm() > 0 || motion_.rate.squaredNorm() > 0))
+  if (source && (motion_.velocity.squaredNorm() > 0 || motion_.rate.squaredNorm() > 0 || m.rotation.rate))
     throw std::logic_error("Simulation::set_part_source: the simulation was planned with a body motion");
   m.source = std::move(source);
   if (m.ib) {
@@ -214,27 +235,30 @@ void Simulation::restore(const SimulationState& s, const BodyMotion& state_motio
   const Shape sh = grid().shape();
   if (!(s.u[0].shape() == sh))
     throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
+  const Vec3 rate = impl_->frame_rate(s.time);  // this run's frame rate at the state's time
+  if (state_motion.velocity == motion_.velocity && state_motion.rate == rate) return restore(s);
+  // The state's far field -V0 - Omega0 x r becomes this run's: add the difference everywhere (a linear field,
+  // divergence-free, so the restored velocity stays discretely divergence-free).
+  const Vec3 dV = motion_.velocity - state_motion.velocity, dW = rate - state_motion.rate;
+  SimulationState t = s;
+  const Grid& g = grid();
+  for (int d = 0; d < 3; ++d)
+    for (int k = 0; k <= sh.nz + 1; ++k)
+      for (int j = 0; j <= sh.ny + 1; ++j)
+        for (int i = 0; i <= sh.nx + 1; ++i) {
+          const auto x = g.point(d, i, j, k);
+          t.u[d](i, j, k) += real((-dV - dW.cross(Vec3(x[0], x[1], x[2])))[d]);
+        }
+  restore(t);
+}
+
+void Simulation::restore(const SimulationState& s) {
+  const Shape sh = grid().shape();
+  if (!(s.u[0].shape() == sh))
+    throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
   Impl& m = *impl_;
   m.solver.attach(nullptr);
-  const bool same = state_motion.velocity == motion_.velocity && state_motion.rate == motion_.rate;
-  if (!same) {
-    // The state's far field -V0 - Omega0 x r becomes this run's: add the difference everywhere (a linear field,
-    // divergence-free, so the restored velocity stays discretely divergence-free).
-    const InsectMotion from(m.config, state_motion);
-    VectorField u = s.u;
-    const Grid& g = grid();
-    for (int d = 0; d < 3; ++d)
-      for (int k = 0; k <= sh.nz + 1; ++k)
-        for (int j = 0; j <= sh.ny + 1; ++j)
-          for (int i = 0; i <= sh.nx + 1; ++i) {
-            const auto x = g.point(d, i, j, k);
-            const Vec3 X(x[0], x[1], x[2]);
-            u[d](i, j, k) += real((m.motion.far_field(X) - from.far_field(X))[d]);
-          }
-    m.solver.restore(s.time, u, s.p, s.phi, s.guess);
-  } else {
-    m.solver.restore(s.time, s.u, s.p, s.phi, s.guess);
-  }
+  m.solver.restore(s.time, s.u, s.p, s.phi, s.guess);
   if (m.ib) m.attach();
   step_ = s.step;
   dt_last_ = s.dt_last;

@@ -31,6 +31,14 @@ struct SimulationOptions {
   bool bodies = true;  // false: a body-free flow in the same box (solver checks, tests)
   std::function<Vec3(double x, double y, double z)> initial_velocity;  // default: the uniform stream -V
   ImmersedOptions::Contact contact = ImmersedOptions::Contact::gap;  // where two parts meet (ImmersedOptions::contact)
+  // A frame whose rate changes in time: the body, and the grid fixed to it, turns about O at rate(t) (rad/s, grid
+  // axes), with rate_rate(t) = d rate / dt (rad/s^2); e.g. a forced pitch oscillation, in which the body keeps its
+  // cells. The solver carries the Coriolis and Euler accelerations (SolverOptions::frame_rate_at), the far field
+  // is -V - rate(t) x r, the parts' apparent accelerations and the centrifugal pressure's load follow rate(t). The
+  // simulation must be planned with no steady rate (BodyMotion::rate = 0).
+  struct FrameRotation {
+    std::function<Vec3(double t)> rate{}, rate_rate{};
+  } frame_rotation{};
 };
 
 // Everything a step depends on (one checkpoint schema): restoring it continues the run bit for bit.
@@ -75,11 +83,12 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  // Restores a state (exact continuation when it was computed with this simulation's motion). A state of another
-  // body motion `state_motion` (e.g. the kept hover state for a perturbed run) gets this run's far field: the
-  // difference of the two far fields, -dV - dOmega x r, is added to the velocity everywhere.
+  // Restores a state of this simulation (an exact continuation). A state of another body motion `state_motion`
+  // (e.g. the kept hover state for a perturbed run) gets this run's far field at the state's time: the difference
+  // of the two far fields, -dV - dOmega x r, is added to the velocity everywhere (the body's motion starts
+  // impulsively; the pressure is left as it was, and the first projection makes it the new flow's).
   void restore(const SimulationState& state, const BodyMotion& state_motion);
-  void restore(const SimulationState& state) { restore(state, motion_); }
+  void restore(const SimulationState& state);
   SimulationState state() const;
   // One time step; throws StepFailure.
   StepReport advance();

@@ -66,9 +66,9 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
 // Calls fn(n, sigma, u_far) for every interior unknown n of component d inside a layer (flat index of the field),
 // sigma the layer's rate there and u_far the far field's component d; rows in parallel.
 template <class Fn>
-void Solver::sweep_sponge(int d, Fn&& fn) const {
+void Solver::sweep_sponge(int d, const Vec3& rate, Fn&& fn) const {
   const Shape s = grid_.shape();
-  const Vec3 stream = opt_.sponge.velocity, rate = opt_.frame_rate;
+  const Vec3 stream = opt_.sponge.velocity;
   const double* sx = (d == 0 ? sponge_f_ : sponge_c_)[0].data();
   const double* sy = (d == 1 ? sponge_f_ : sponge_c_)[1].data();
   const double* sz = (d == 2 ? sponge_f_ : sponge_c_)[2].data();
@@ -95,11 +95,11 @@ void Solver::sweep_sponge(int d, Fn&& fn) const {
 
 // u* <- (u* + alpha dt sigma u_far) / (1 + alpha dt sigma) at every interior unknown where sigma > 0: the implicit
 // Euler step of du/dt = -sigma (u - u_far) over the stage's alpha dt (the stages' alphas sum to 1).
-void Solver::relax(VectorField& ustar, double adt) const {
+void Solver::relax(VectorField& ustar, double adt, double t) const {
   if (sponge_c_[0].empty()) return;
   for (int d = 0; d < 3; ++d) {
     real* u = ustar[d].data();
-    sweep_sponge(d, [&](std::ptrdiff_t n, double sigma, double target) {
+    sweep_sponge(d, opt_.rate_at(t), [&](std::ptrdiff_t n, double sigma, double target) {
       u[n] = (u[n] + adt * sigma * target) / (1 + adt * sigma);
     });
   }
@@ -111,7 +111,7 @@ void Solver::sponge_force(const VectorField& u, VectorField& f) const {
     if (sponge_c_[0].empty()) continue;
     const real* v = u[d].data();
     real* out = f[d].data();
-    sweep_sponge(d, [&](std::ptrdiff_t n, double sigma, double target) { out[n] = -sigma * (v[n] - target); });
+    sweep_sponge(d, opt_.rate_at(t_), [&](std::ptrdiff_t n, double sigma, double target) { out[n] = -sigma * (v[n] - target); });
   }
 }
 
@@ -190,8 +190,14 @@ double Solver::time_step(double conv) const {
 void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   const double adt = c.alpha() * dt;
   predict(grid_, u_, p_, rhs_u_, ustar_, opt_.nu, dt, c);
-  if (opt_.frame_rate.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, opt_.frame_rate, dt, c);
-  relax(ustar_, adt);
+  if (opt_.frame_rate_at) {
+    const Vec3 from = opt_.frame_rate_at(t_stage - adt), to = opt_.frame_rate_at(t_stage);
+    if (from.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, from, dt, c);
+    add_rotation(grid_, ustar_, from - to);  // the Euler acceleration's integral over the stage
+  } else if (opt_.frame_rate.squaredNorm() > 0) {
+    add_coriolis(grid_, u_, rhs_u_, ustar_, opt_.frame_rate, dt, c);
+  }
+  relax(ustar_, adt, t_stage);
   impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
   if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
   divergence(grid_, ustar_, div_, 1.0 / adt);

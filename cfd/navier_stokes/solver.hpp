@@ -42,6 +42,14 @@ struct SolverOptions {
   // grad(|Omega x r|^2 / 2), is absorbed in the pressure, which becomes the reduced pressure
   // P = p - |Omega x r|^2 / 2 (kinematic). Boundary velocities are those seen in the rotating frame.
   Vec3 frame_rate = Vec3::Zero();
+  // A frame whose rate changes in time (a body forced to oscillate, with the grid fixed to it): Omega(t) in place of
+  // frame_rate. The momentum equation then also carries the Euler acceleration -dOmega/dt x r, a rotational field
+  // that stays in the velocity; each stage adds its exact integral -(Omega(t_end) - Omega(t_start)) x r. The
+  // Coriolis term takes Omega at the stage's start (explicit, like the convection), the far field and the sponge
+  // target -Omega(t) x r at the stage's time. r is measured from the grid's origin, the frame's centre of rotation.
+  std::function<Vec3(double t)> frame_rate_at{};
+  Vec3 rate_at(double t) const { return frame_rate_at ? frame_rate_at(t) : frame_rate; }
+  bool rotating() const { return bool(frame_rate_at) || frame_rate.squaredNorm() > 0; }
   Sponge sponge{};  // none unless a width and a rate are set
 };
 
@@ -109,9 +117,9 @@ class Solver {
  private:
   void stage(double dt, const StageCoefficients& c, double t_stage);
   double time_step(double conv) const;
-  void relax(VectorField& ustar, double alpha_dt) const;  // the sponge layer's implicit relaxation
+  void relax(VectorField& ustar, double alpha_dt, double t) const;  // the sponge layer's implicit relaxation
   template <class Fn>
-  void sweep_sponge(int d, Fn&& fn) const;  // fn(flat index, sigma, u_far) at every unknown of component d in a layer
+  void sweep_sponge(int d, const Vec3& rate, Fn&& fn) const;  // fn(flat index, sigma, u_far) at every unknown of component d in a layer
 
   Grid grid_;
   Boundaries bc_;

@@ -1,7 +1,8 @@
 // Tests of the forced pitch oscillation (cfd/navier_stokes/oscillation, CfdModel::pitch_oscillation): its kinematics,
-// its fit, the room it needs, its run cache, and its rate derivative against the steady-rotation runs' in the limit
-// of a slow oscillation.
+// its fit, its run cache, the hover it reduces to at a vanishing amplitude, and (a probe) its rate derivative against
+// the steady-rotation runs'.
 #include <gtest/gtest.h>
+#include <fmt/format.h>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,7 +15,6 @@
 #include "cfd/navier_stokes/oscillation.hpp"
 #include "common/case_text.hpp"
 #include "common/model_case.hpp"
-#include "common/expect_error.hpp"
 #include "core/errors.hpp"
 
 namespace flapstab::ns {
@@ -32,8 +32,8 @@ std::string fresh_dir(const std::string& name) {
   return d.string();
 }
 
-// q is the derivative of theta and dq/dt that of q (central differences, to their truncation error), and the body's
-// frame turns by theta about y, nose up for theta > 0 (x forward, z down: the nose point (1, 0, 0) rises, z < 0).
+// q is the derivative of theta and dq/dt that of q (central differences, to their truncation error); theta starts
+// at 0 and reaches theta0 a quarter period later.
 TEST(PitchOscillation, AngleRateAndAccelerationAreDerivatives) {
   PitchOscillationSpec s;
   s.amplitude = 3 * deg;
@@ -47,9 +47,6 @@ TEST(PitchOscillation, AngleRateAndAccelerationAreDerivatives) {
   }
   EXPECT_EQ(pitch_oscillation_angle(s, T, 0).theta, 0.0);
   EXPECT_NEAR(pitch_oscillation_angle(s, T, 2 * T).theta, s.amplitude, 1e-15);  // a quarter period: the top
-  const BodyFrame b = pitch_oscillation_frame(s, T, 2 * T);
-  EXPECT_LT((b.rotation * Vec3(1, 0, 0)).z(), 0.0);
-  EXPECT_NEAR((b.rotation * Vec3(1, 0, 0)).z(), -std::sin(s.amplitude), 1e-15);
 }
 
 // A response y = A sin(omega t + p) averaged over wingbeats as theta and q are is fitted by its in-phase and
@@ -82,23 +79,6 @@ TEST(PitchOscillation, FitOfASinusoidIsItsInPhaseAndQuadratureParts) {
   EXPECT_NEAR(g.rate, f.rate, 4 * g.rate_se);
   EXPECT_LT(g.rate_se, 0.01 * std::abs(f.rate));
   EXPECT_THROW(fit_oscillation({0.1, 0.2}, {1, 2}, {3, 4}), SolveError);
-}
-
-// The insect turned by +-theta0 about O must stay in the hover grid's fine box: beyond it, an input error naming
-// the amplitude key.
-TEST(PitchOscillation, AnInsectTurnedBeyondTheFineBoxIsAnInputError) {
-  CfdPlan plan;
-  plan.swept_lo = Vec3(-1, -1, -1);
-  plan.swept_hi = Vec3(1, 1, 1);
-  plan.fine_lo = Vec3(-1.1, -1.1, -1.1);
-  plan.fine_hi = Vec3(1.1, 1.1, 1.1);
-  PitchOscillationSpec s;
-  s.amplitude = 2 * deg;  // corner (1, 1): cos + sin = 1.034
-  EXPECT_NO_THROW(check_pitch_oscillation_room(plan, s, "case.toml"));
-  s.amplitude = 10 * deg;  // 1.158
-  const std::string what = testing::expect_input_error([&] { check_pitch_oscillation_room(plan, s, "case.toml"); },
-                                                       "derivatives.pitch_oscillation.amplitude_deg");
-  EXPECT_NE(what.find("beyond the fine box"), std::string::npos) << what;
 }
 
 // With a cache directory the oscillation keeps its state and wingbeats: a later call asking for another period
@@ -140,12 +120,14 @@ TEST(CfdModel, PitchOscillationIsContinuedFromItsCacheBitForBit) {
   fs::remove_all(fs::temp_directory_path() / ("flapstab_oscillation_" + std::to_string(::getpid())));
 }
 
-// At a vanishing amplitude the oscillating insect is the hover: the parts composed with a frame turned by ~0 and the
-// loads turned back into the body's axes reproduce the continued hover's loads, whose path (the prescribed parts,
-// no part source) is another, to the pressure solver's tolerance: every wingbeat's difference is below 1e-6 of the
-// weight (and of weight x mean chord). A response linear in the amplitude is not asserted: in a grid fixed in space
-// the turned body's discretisation makes it depend on the amplitude (docs/validation.md, "Forced pitch oscillation").
-TEST(CfdModel, PitchOscillationOfVanishingAmplitudeIsTheHover) {
+// At a vanishing amplitude the oscillating insect is the hover: the grid turning at a rate of ~1e-9 rad/s, whose
+// terms (Coriolis, Euler, far field, the parts' apparent accelerations) then vanish, reproduces the continued
+// hover's loads to the pressure solver's tolerance: every wingbeat's difference is below 1e-6 of the weight (and of
+// weight x mean chord). At 1 and 2 deg the response is linear in the amplitude: every wingbeat's difference at 2 deg
+// is twice that at 1 deg within 2 % of the largest. What departs is the quadratic response, O(theta0) relative to the
+// linear one (measured 0.7 % for X, 0.4 % for Z, 0.03 % for M). The body keeps its cells in the turning grid; the
+// earlier formulation, the body turned through a grid fixed in space, missed this by 35 % in M_q on this grid.
+TEST(CfdModel, PitchOscillationIsTheHoverAtAVanishingAmplitudeAndLinearInIt) {
   const Case c = model_case("osc_zero.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 3\n");
   const CfdModel model(c, nullptr);
   PitchOscillationSpec s;
@@ -162,12 +144,30 @@ TEST(CfdModel, PitchOscillationOfVanishingAmplitudeIsTheHover) {
   }
   // The continued hover went as far as the oscillation.
   EXPECT_EQ(model.reference_cycles().size(), 6u);
+  s.amplitude = 1 * deg;
+  const PitchOscillationResult one = model.pitch_oscillation(c.insect, c.kinematics, s);
+  s.amplitude = 2 * deg;
+  const PitchOscillationResult two = model.pitch_oscillation(c.insect, c.kinematics, s);
+  for (int i : {0, 2, 4}) {  // X, Z, M
+    double largest = 0, worst = 0;
+    for (std::size_t k = 0; k < 6; ++k) {
+      const auto at = [i](const OscillationWingbeat& w) {
+        return i < 3 ? w.difference.force[i] : w.difference.moment[i - 3];
+      };
+      largest = std::max(largest, std::abs(2 * at(one.wingbeats[k])));
+      worst = std::max(worst, std::abs(at(two.wingbeats[k]) - 2 * at(one.wingbeats[k])));
+    }
+    std::printf("  component %d: largest response at 2 deg %.4g, departure from linearity %.3g\n", i, largest, worst);
+    EXPECT_GT(largest, 1e-4 * (i < 3 ? W : Wc)) << i;  // a response to compare
+    EXPECT_LT(worst, 0.02 * largest) << i;
+  }
 }
 
 // Study probe (not run by default; docs/validation.md, "Forced pitch oscillation"): on the test moth, the steady-rate
 // runs' X_q and M_q (q = +-1 rad/s, rotating frame) beside the oscillation's fits for every amplitude (deg) in
 // PROBE_AMPLITUDES (default "1 2") and period (wingbeats) in PROBE_PERIODS (default "4"), PROBE_FIT_PERIODS periods
-// fitted (default 2) after half a period.
+// fitted (default 2) after half a period. PROBE_STEADY_WINGBEATS (default 6, converged to 0.001 of the weight) above 6:
+// the steady-rate runs run that many wingbeats, the last half averaged.
 TEST(CfdModelStudy, DISABLED_PitchOscillationProbe) {
   auto list = [](const char* name, std::vector<double> v) {
     if (const char* e = std::getenv(name)) {
@@ -179,8 +179,10 @@ TEST(CfdModelStudy, DISABLED_PitchOscillationProbe) {
   };
   const std::vector<double> amplitudes = list("PROBE_AMPLITUDES", {1, 2}), periods = list("PROBE_PERIODS", {4});
   const int fitted = int(list("PROBE_FIT_PERIODS", {2}).at(0));
-  const Case c = model_case("osc_probe.toml", "cycles = 2\nhover_tolerance = 0.5\nmax_cycles = 6\n"
-                                                    "perturbation_tolerance = 0.001\n");
+  const int steady = int(list("PROBE_STEADY_WINGBEATS", {6}).at(0));  // the steady-rate runs' longest
+  const Case c = model_case("osc_probe.toml", fmt::format("cycles = 2\nhover_tolerance = 0.5\nmax_cycles = {}\n"
+                                                          "perturbation_tolerance = {}\n",
+                                                          steady, steady > 6 ? 1e-9 : 1e-3));
   const CfdModel model(c, nullptr);
   model.run(c.insect, c.kinematics, BodyMotion{}, AeroRunOptions{});
   BodyMotion plus, minus;
@@ -188,7 +190,7 @@ TEST(CfdModelStudy, DISABLED_PitchOscillationProbe) {
   minus.rate.y() = -1.0;
   const Wrench wp = model.run(c.insect, c.kinematics, plus, AeroRunOptions{}).mean();
   const Wrench wm = model.run(c.insect, c.kinematics, minus, AeroRunOptions{}).mean();
-  std::printf("steady rate +-1 rad/s: Xq = %.4g N s, Mq = %.4g N m s\n", (wp.force.x() - wm.force.x()) / 2,
+  std::printf("steady rate +-1 rad/s (%zu wingbeats): Xq = %.4g N s, Mq = %.4g N m s\n", model.records().back().cycles.size(), (wp.force.x() - wm.force.x()) / 2,
               (wp.moment.y() - wm.moment.y()) / 2);
   for (double P : periods)
     for (double a : amplitudes) {
