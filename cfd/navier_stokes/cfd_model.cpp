@@ -745,8 +745,8 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   const double T = st.plan.period;
   const int needed = spec.wingbeats();
   // The run's wingbeats do not depend on how many are fitted: one key per amplitude and period, extended on demand.
-  const std::string key =
-      fnv1a64_hex(st.key + "|pitch-oscillation, body frame|" + fmt::format("{:.17g} {}", spec.amplitude, spec.period_wingbeats));
+  const std::string key = fnv1a64_hex(st.key + "|pitch-oscillation, body frame|" +
+                                      fmt::format("{:.17g} {}", spec.amplitude, spec.period_wingbeats));
   const std::string json_file = file("pitch_" + key + ".json"), h5_file = file("pitch_" + key + ".h5");
   PitchOscillationResult r;
   r.spec = spec;

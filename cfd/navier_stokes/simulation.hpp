@@ -8,7 +8,9 @@
 // still air seen from the body, -V - Omega x r, prescribed on five faces (zero in hover: quiescent air at rest);
 // the face below the insect (+z) is a zero-gradient outflow with p = 0, where the downwash leaves. With rates
 // Omega the frame turns: Coriolis acceleration in the momentum equation, reduced pressure (SolverOptions), and
-// the centrifugal pressure's load on closed parts added back. Loads in the body's stability axes, moments about O.
+// the centrifugal pressure's load on closed parts added back; a rate that changes in time (a forced oscillation)
+// adds the Euler acceleration (SimulationOptions::frame_rotation). Loads in the body's stability axes, moments
+// about O.
 //
 // The parts' kinematics (pose, velocity, acceleration) are handed to the immersed boundary as values at every
 // Runge-Kutta stage time (ImmersedBoundary::set_parts): InsectMotion computes them here; a free-flight driver

@@ -111,7 +111,8 @@ void Solver::sponge_force(const VectorField& u, VectorField& f) const {
     if (sponge_c_[0].empty()) continue;
     const real* v = u[d].data();
     real* out = f[d].data();
-    sweep_sponge(d, opt_.rate_at(t_), [&](std::ptrdiff_t n, double sigma, double target) { out[n] = -sigma * (v[n] - target); });
+    sweep_sponge(d, opt_.rate_at(t_),
+                 [&](std::ptrdiff_t n, double sigma, double target) { out[n] = -sigma * (v[n] - target); });
   }
 }
 

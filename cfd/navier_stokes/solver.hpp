@@ -118,8 +118,9 @@ class Solver {
   void stage(double dt, const StageCoefficients& c, double t_stage);
   double time_step(double conv) const;
   void relax(VectorField& ustar, double alpha_dt, double t) const;  // the sponge layer's implicit relaxation
+  // fn(flat index, sigma, u_far) at every unknown of component d in a layer; u_far with the frame rate `rate`
   template <class Fn>
-  void sweep_sponge(int d, const Vec3& rate, Fn&& fn) const;  // fn(flat index, sigma, u_far) at every unknown of component d in a layer
+  void sweep_sponge(int d, const Vec3& rate, Fn&& fn) const;
 
   Grid grid_;
   Boundaries bc_;

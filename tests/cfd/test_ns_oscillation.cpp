@@ -190,7 +190,8 @@ TEST(CfdModelStudy, DISABLED_PitchOscillationProbe) {
   minus.rate.y() = -1.0;
   const Wrench wp = model.run(c.insect, c.kinematics, plus, AeroRunOptions{}).mean();
   const Wrench wm = model.run(c.insect, c.kinematics, minus, AeroRunOptions{}).mean();
-  std::printf("steady rate +-1 rad/s (%zu wingbeats): Xq = %.4g N s, Mq = %.4g N m s\n", model.records().back().cycles.size(), (wp.force.x() - wm.force.x()) / 2,
+  std::printf("steady rate +-1 rad/s (%zu wingbeats): Xq = %.4g N s, Mq = %.4g N m s\n",
+              model.records().back().cycles.size(), (wp.force.x() - wm.force.x()) / 2,
               (wp.moment.y() - wm.moment.y()) / 2);
   for (double P : periods)
     for (double a : amplitudes) {
