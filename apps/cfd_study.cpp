@@ -205,6 +205,18 @@ PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& 
     p.theta_se_nd[k] = f.theta_se < 0 ? -1 : f.theta_se / scale;
     p.theta_last_nd[k] = l.theta / scale;
   }
+  if (!run.phase.empty()) {
+    std::array<double, 6> rate{}, theta{};
+    const double m = double(run.phase.size());
+    for (const auto& at : run.phase)
+      for (std::size_t k = 0; k < 6; ++k) {
+        const double scale = k < 3 ? ref.force_scale() : ref.moment_scale();
+        rate[k] += at[k].rate / (scale * tc) / m;
+        theta[k] += at[k].theta / scale / m;
+      }
+    p.rate_phase_mean_nd = rate;
+    p.theta_phase_mean_nd = theta;
+  }
   if (table.has_longitudinal) {
     p.modes_steady_rate = analyse_modes(longitudinal_system(table), ref);
     DerivativeTable t = table;
@@ -283,12 +295,8 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
         "above leaves out (`flapstab cfd {} --dry-run` prints it; 1.3-1.4 on the hawkmoth example)\n",
         cs.fpm.samples_per_cycle, c.path);
 
+  check_pitch_oscillation(c);  // a case built in code has not been through load_case
   if (const auto& po = c.derivatives.pitch_oscillation; po.enabled) {
-    if (c.derivatives.columns == "lateral")  // no longitudinal table for the oscillation's columns to complete
-      throw InputError(c.path, "derivatives.pitch_oscillation",
-                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"" +
-                           c.derivatives.columns + "\"",
-                       "columns = \"longitudinal\" or \"all\"");
     const int wb = oscillation_spec(po).wingbeats();
     if (log)
       *log << fmt::format("cfd study: then a forced pitch oscillation of {:g} deg, {} wingbeats per period: {} "
@@ -391,7 +399,31 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
     s.pitch_oscillation = pitch_oscillation_study(cfd.pitch_oscillation(c.insect, s.trim.kinematics, spec),
                                                   s.derivatives.table);
     stage(fmt::format("pitch oscillation ({} wingbeats)", spec.wingbeats()), t, 1);
-    const auto& ps = *s.pitch_oscillation;
+    auto& ps = *s.pitch_oscillation;
+    // Floquet with the oscillation's phase-resolved columns: its steps are the runs' phase-locked rows, step i at
+    // phase (i + 1) / n, and the A(t)'s sample k (at phase k / n) is row k - 1 (history_from_rows).
+    const std::size_t N = s.phase.samples.size();
+    if (ps.run.phase.empty()) {
+      ps.floquet_note = ps.run.phase_note;
+    } else if (ps.run.phase.size() != N) {
+      ps.floquet_note = fmt::format("the oscillation has {} steps per wingbeat, the A(t) {} samples",
+                                    ps.run.phase.size(), N);
+    } else if (s.derivatives.table.has_longitudinal) {
+      std::vector<WrenchColumn> rate(N), theta(N);
+      for (std::size_t k = 0; k < N; ++k)
+        for (std::size_t i = 0; i < 6; ++i) {
+          rate[k](Eigen::Index(i)) = ps.run.phase[(k + N - 1) % N][i].rate;
+          theta[k](Eigen::Index(i)) = ps.run.phase[(k + N - 1) % N][i].theta;
+        }
+      try {
+        ps.floquet = floquet_of(with_pitch_columns(s.phase, cfd, c.insect, s.trim.kinematics, rate, theta),
+                                "longitudinal", {0, 2, 4, 7}, {"u", "w", "q", "theta"});
+      } catch (const std::exception& e) {
+        ps.floquet_note = e.what();
+      }
+    }
+    if (!ps.floquet)
+      s.notices.push_back("pitch oscillation: no Floquet analysis with its columns: " + ps.floquet_note);
     for (int i : {0, 2, 4}) {
       const std::size_t k = std::size_t(i);
       const double se = ps.rate_se_nd[k];
@@ -412,6 +444,17 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
 
 namespace {
 
+nlohmann::json floquet_json(const std::optional<FloquetAnalysis>& f) {
+  using nlohmann::json;
+  if (!f) return nullptr;
+  json mu = json::array(), ex = json::array();
+  for (std::size_t i = 0; i < f->multipliers.size(); ++i) {
+    mu.push_back({f->multipliers[i].real(), f->multipliers[i].imag()});
+    ex.push_back({f->exponents_per_wingbeat[i].real(), f->exponents_per_wingbeat[i].imag()});
+  }
+  return {{"states", f->state_order}, {"multipliers", mu}, {"exponents_per_wingbeat", ex}};
+}
+
 nlohmann::json pitch_oscillation_json(const PitchOscillationStudy& p) {
   using nlohmann::json;
   const ns::PitchOscillationSpec& sp = p.run.spec;
@@ -429,6 +472,10 @@ nlohmann::json pitch_oscillation_json(const PitchOscillationStudy& p) {
                                                {"last_period", p.rate_last_nd[k]}};
     der[std::string(1, row_names[i]) + "theta"] = {{"value", p.theta_nd[k]}, {"standard_error", p.theta_se_nd[k]},
                                                    {"last_period", p.theta_last_nd[k]}};
+    if (p.rate_phase_mean_nd) {
+      der[std::string(1, row_names[i]) + "q"]["phase_resolved_mean"] = (*p.rate_phase_mean_nd)[k];
+      der[std::string(1, row_names[i]) + "theta"]["phase_resolved_mean"] = (*p.theta_phase_mean_nd)[k];
+    }
   }
   return {{"amplitude_deg", sp.amplitude * 180 / std::numbers::pi},
           {"period_wingbeats", sp.period_wingbeats},
@@ -441,7 +488,9 @@ nlohmann::json pitch_oscillation_json(const PitchOscillationStudy& p) {
           {"derivatives_nd", der},
           {"wingbeats", wb},
           {"modes", p.modes ? to_json(*p.modes) : json()},
-          {"modes_steady_rate", p.modes_steady_rate ? to_json(*p.modes_steady_rate) : json()}};
+          {"modes_steady_rate", p.modes_steady_rate ? to_json(*p.modes_steady_rate) : json()},
+          {"floquet_longitudinal", floquet_json(p.floquet)},
+          {"floquet_note", p.floquet_note}};
 }
 
 }  // namespace
@@ -474,15 +523,6 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
                             {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()}});
   json stages = json::array();
   for (const auto& st : s.stages) stages.push_back({{"stage", st.name}, {"wall_s", st.seconds}, {"cfd_runs", st.runs}});
-  auto floq = [](const std::optional<FloquetAnalysis>& f) -> json {
-    if (!f) return nullptr;
-    json mu = json::array(), ex = json::array();
-    for (std::size_t i = 0; i < f->multipliers.size(); ++i) {
-      mu.push_back({f->multipliers[i].real(), f->multipliers[i].imag()});
-      ex.push_back({f->exponents_per_wingbeat[i].real(), f->exponents_per_wingbeat[i].imag()});
-    }
-    return {{"states", f->state_order}, {"multipliers", mu}, {"exponents_per_wingbeat", ex}};
-  };
   return {{"grid", {{"cells", s.cells}, {"cells_per_mean_chord", s.plan.chord_cells},
                     {"fine_spacing_m", s.plan.h_actual}, {"steps_per_cycle", s.plan.steps_per_cycle},
                     {"reynolds", s.plan.reynolds}, {"seconds_per_step_estimate", s.seconds_per_step_estimate},
@@ -494,8 +534,8 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
           {"stages", stages},
           {"phase_resolved", {{"phases", s.phase.samples.size()}, {"cycle_mean_nd", matrix_json(s.phase.mean_wrench_nd())}}},
           {"derivatives_by_mechanism", by_mechanism},
-          {"floquet_longitudinal", floq(s.floquet_longitudinal)},
-          {"floquet_lateral", floq(s.floquet_lateral)},
+          {"floquet_longitudinal", floquet_json(s.floquet_longitudinal)},
+          {"floquet_lateral", floquet_json(s.floquet_lateral)},
           {"pitch_oscillation", s.pitch_oscillation ? pitch_oscillation_json(*s.pitch_oscillation) : json()},
           {"notices", s.notices},
           {"wall_s", s.wall_time_s}};
@@ -508,22 +548,30 @@ std::string pitch_oscillation_markdown(const PitchOscillationStudy& p, const Der
   const ns::PitchOscillationSpec& sp = p.run.spec;
   std::string m = fmt::format(
       "\nForced pitch oscillation (docs/theory/cfd-stability.md): theta = {:.3g} deg x sin(omega t) about O, period {} "
-      "wingbeats (omega c/U = {:.4f}), {} wingbeats left out, then {} periods fitted (wingbeat means of the loads' "
-      "difference from the continued hover against those of theta and q). Non-dimensional as the table; the rate "
-      "column beside the steady-rate runs' and the quasi-steady model's:\n\n"
-      "| derivative | oscillation ± standard error | last period alone | steady rate (table) | quasi-steady |\n"
-      "|---|---|---|---|---|\n",
-      sp.amplitude * 180 / std::numbers::pi, sp.period_wingbeats, p.omega_nd, sp.transient(), sp.periods);
+      "wingbeats (omega c/U = {:.4f}), {} wingbeats left out, then {} period{} fitted (wingbeat means of the loads' "
+      "difference from the continued hover against those of theta and q), and the cycle mean of the same fit made "
+      "phase by phase (each phase-locked step's difference against theta and q at that step). Non-dimensional as the "
+      "table; the rate column beside the steady-rate runs' and the quasi-steady model's:\n\n"
+      "| derivative | oscillation ± standard error | last period alone | phase-resolved, cycle mean | steady rate "
+      "(table) | quasi-steady |\n"
+      "|---|---|---|---|---|---|\n",
+      sp.amplitude * 180 / std::numbers::pi, sp.period_wingbeats, p.omega_nd, sp.transient(), sp.periods,
+      sp.periods == 1 ? "" : "s");
   auto se = [](double v) { return v >= 0 ? fmt::format(" ± {:.4f}", v) : std::string(); };
+  auto phase_mean = [](const std::optional<std::array<double, 6>>& v, std::size_t k) {
+    return v ? fmt::format("{:+.4f}", (*v)[k]) : std::string("-");
+  };
   for (int i : {0, 2, 4}) {
     const std::size_t k = std::size_t(i);
-    m += fmt::format("| {}q | {:+.4f}{} | {:+.4f} | {:+.4f} | {:+.4f} |\n", row_names[i], p.rate_nd[k],
-                     se(p.rate_se_nd[k]), p.rate_last_nd[k], cfd.nd(i, 4), qs.nd(i, 4));
+    m += fmt::format("| {}q | {:+.4f}{} | {:+.4f} | {} | {:+.4f} | {:+.4f} |\n", row_names[i], p.rate_nd[k],
+                     se(p.rate_se_nd[k]), p.rate_last_nd[k], phase_mean(p.rate_phase_mean_nd, k), cfd.nd(i, 4),
+                     qs.nd(i, 4));
   }
   for (int i : {0, 2, 4}) {
     const std::size_t k = std::size_t(i);
-    m += fmt::format("| {}θ (per rad) | {:+.4f}{} | {:+.4f} | (0: a steady attitude changes nothing in still air) | 0 "
-                     "|\n", row_names[i], p.theta_nd[k], se(p.theta_se_nd[k]), p.theta_last_nd[k]);
+    m += fmt::format("| {}θ (per rad) | {:+.4f}{} | {:+.4f} | {} | (0: a steady attitude changes nothing in still "
+                     "air) | 0 |\n", row_names[i], p.theta_nd[k], se(p.theta_se_nd[k]), p.theta_last_nd[k],
+                     phase_mean(p.theta_phase_mean_nd, k));
   }
   if (p.modes && p.modes_steady_rate) {
     m += "\nLongitudinal modes with the oscillation's q column and aerodynamic theta column, beside those of the table "
@@ -552,6 +600,12 @@ std::string pitch_oscillation_markdown(const PitchOscillationStudy& p, const Der
                                            std::max(2, int(std::lround(*md.period_wingbeats)))));
         break;
       }
+  }
+  if (p.floquet) {
+    m += fmt::format("\nFloquet multipliers of the CFD A(t) with the oscillation's phase-resolved q and theta columns, "
+                     "{} [{}]:", p.floquet->name, fmt::join(p.floquet->state_order, ", "));
+    for (const auto& mu : p.floquet->multipliers) m += fmt::format(" {} (|mu| {:.4f});", fmt_c(mu), std::abs(mu));
+    m += "\n";
   }
   return m;
 }

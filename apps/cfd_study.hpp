@@ -49,6 +49,13 @@ struct PitchOscillationStudy {
   double omega_nd = 0;  // omega c / U
   std::array<double, 6> rate_nd{}, rate_se_nd{}, rate_last_nd{}, theta_nd{}, theta_se_nd{}, theta_last_nd{};
   std::optional<StabilityAnalysis> modes, modes_steady_rate;  // with the oscillation's columns; the table as it is
+  // From the phase-resolved fits (ns::PitchOscillationResult::phase): the cycle means of the per-phase rate and
+  // attitude derivatives (non-dimensional; beside the wingbeat fits above), and the Floquet analysis of the CFD A(t)
+  // with its q column's X Z M rows replaced by the per-phase rate fits and the per-phase attitude fits added
+  // (cfd_study; floquet_note says why there is none).
+  std::optional<std::array<double, 6>> rate_phase_mean_nd, theta_phase_mean_nd;
+  std::optional<FloquetAnalysis> floquet;
+  std::string floquet_note;
 };
 // The non-dimensional fits and both mode sets from a finished oscillation and the CFD table (longitudinal columns).
 PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& run, const DerivativeTable& table);

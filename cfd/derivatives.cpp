@@ -2,6 +2,7 @@
 #include "cfd/derivatives.hpp"
 
 #include <algorithm>
+#include <fmt/format.h>
 #include "cfd/phase_derivatives.hpp"
 #include "core/configuration.hpp"
 #include "core/eom.hpp"
@@ -193,6 +194,30 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
     }
     complete_phase_sample(s, config, w0, ref, g);
     out.samples.push_back(s);
+  }
+  return out;
+}
+
+PhaseDerivatives with_pitch_columns(const PhaseDerivatives& ph, const AeroModel& model, const Insect& insect,
+                                    const Kinematics& kin, const std::vector<WrenchColumn>& rate_si,
+                                    const std::vector<WrenchColumn>& theta_si, std::optional<double> g_given) {
+  const std::size_t N = ph.samples.size();
+  if (rate_si.size() != N || theta_si.size() != N)
+    throw SolveError(fmt::format("with_pitch_columns: {} phase samples, but {} rate and {} attitude columns", N,
+                                 rate_si.size(), theta_si.size()));
+  const WrenchHistory h0 = model.run(insect, kin, BodyMotion{}, AeroRunOptions{});
+  if (h0.samples.size() != N)
+    throw SolveError(fmt::format("with_pitch_columns: the hover has {} samples per wingbeat, the A(t) {}",
+                                 h0.samples.size(), N));
+  const Configuration config(insect, kin);
+  PhaseDerivatives out = ph;
+  for (std::size_t k = 0; k < N; ++k) {
+    PhaseSample& s = out.samples[k];
+    for (int i : {0, 2, 4}) {  // X Z M
+      s.wrench_si(i, 4) = rate_si[k](i);
+      s.attitude_si(i, 1) = theta_si[k](i);
+    }
+    complete_phase_sample(s, config, h0.samples[k].total(), ph.reference, g_given.value_or(insect.gravity));
   }
   return out;
 }

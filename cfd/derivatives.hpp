@@ -76,4 +76,14 @@ PhaseDerivatives phase_resolved_from_runs(const AeroModel& model, const Insect& 
                                           const std::vector<int>& columns = {0, 1, 2, 3, 4, 5},
                                           double relative_rate_step = 0);  // 0: relative_step
 
+// `ph` (phase_resolved_from_runs of the same model, insect and kinematics) with its pitch-rate column's longitudinal
+// rows (X Z M) replaced and an aerodynamic pitch-attitude column added, sample by sample: rate_si[k] and theta_si[k]
+// hold d[X Y Z L M N]/dq (N s, N m s) and d[X Y Z L M N]/dtheta (N, N m per rad) at ph.samples[k], e.g. the forced
+// pitch oscillation's phase-resolved fits (cfd/navier_stokes/oscillation.hpp). Only their X, Z and M rows are used.
+using WrenchColumn = Eigen::Matrix<double, 6, 1>;
+PhaseDerivatives with_pitch_columns(const PhaseDerivatives& ph, const AeroModel& model, const Insect& insect,
+                                    const Kinematics& kin, const std::vector<WrenchColumn>& rate_si,
+                                    const std::vector<WrenchColumn>& theta_si,
+                                    std::optional<double> g = std::nullopt);  // default: insect.gravity
+
 }  // namespace flapstab

@@ -86,7 +86,9 @@ void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wr
   // Aerodynamic coupling: the accelerations respond to the wrench through the inverse mass matrix
   // (eom_terms' right-hand side holds the wrench with unit coefficient).
   const EomTerms e = eom_terms(config.mass_state(s.time), s.state, w0, g);
-  s.system_si.block<6, 6>(0, 0) += e.mass_matrix.partialPivLu().solve(s.wrench_si);
+  const auto lu = e.mass_matrix.partialPivLu();
+  s.system_si.block<6, 6>(0, 0) += lu.solve(s.wrench_si);
+  s.system_si.block<6, 2>(0, 6) += lu.solve(s.attitude_si);
 }
 
 PhaseDerivatives phase_resolved_derivatives(const InstantaneousAero& aero, const std::vector<BodyStateVector>& orbit,

@@ -58,6 +58,9 @@ struct PhaseSample {
   BodyStateVector state;                    // orbit state at this phase
   Eigen::Matrix<double, 6, 6> wrench_si;    // d[X Y Z L M N] / d[u v w p q r] (N per m/s, N m per rad/s, ...)
   Eigen::Matrix<double, 6, 6> wrench_nd;    // the same, non-dimensional (as DerivativeTable::nd)
+  // d[X Y Z L M N] / d[phi theta] (N, N m per rad) of the aerodynamic wrench alone: zero for a model without memory
+  // (in still air a steady attitude changes nothing); measured by the forced pitch oscillation (theta column).
+  Eigen::Matrix<double, 6, 2> attitude_si = Eigen::Matrix<double, 6, 2>::Zero();
   Eigen::Matrix<double, 8, 8> system_si;    // A(t) for [u v w p q r phi theta], 1/s
 };
 
@@ -74,8 +77,9 @@ struct PhaseDerivatives {
   std::vector<Eigen::MatrixXd> system_samples(const std::vector<int>& states) const;
 };
 
-// Completes a sample whose time, state and wrench_si are set: wrench_nd, and system_si = the linearised equations
-// of motion at (time, state) with the aerodynamic wrench held at w0, plus the mass matrix's response to wrench_si.
+// Completes a sample whose time, state and wrench_si (and attitude_si) are set: wrench_nd, and system_si = the
+// linearised equations of motion at (time, state) with the aerodynamic wrench held at w0, plus the mass matrix's
+// response to wrench_si and attitude_si.
 void complete_phase_sample(PhaseSample& s, const Configuration& config, const Wrench& w0,
                            const ReferenceQuantities& reference, std::optional<double> g = std::nullopt);
 

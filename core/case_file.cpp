@@ -646,6 +646,24 @@ void check_cfd_geometry(const Insect& insect, const std::string& path, const std
                      "model = \"quasi-steady\" for an abdomen");
 }
 
+void check_pitch_oscillation(const Case& c) {
+  if (!c.derivatives.pitch_oscillation.enabled) return;
+  if (c.aero.model != "cfd")
+    throw InputError(c.path, "derivatives.pitch_oscillation",
+                     "a forced pitch oscillation is a CFD run (the quasi-steady model has no wake to lag), but "
+                     "[aero] model is \"" + c.aero.model + "\"",
+                     "[aero] model = \"cfd\" (or remove [derivatives.pitch_oscillation])");
+  if (c.derivatives.columns == "lateral")
+    throw InputError(c.path, "derivatives.pitch_oscillation",
+                     "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"lateral\"",
+                     "columns = \"longitudinal\" or \"all\" (or remove [derivatives.pitch_oscillation])");
+  if (c.aero.cfd.trim_iterations > 0)
+    throw InputError(c.path, "derivatives.pitch_oscillation",
+                     fmt::format("the oscillation runs about the kept hover's kinematics, which a CFD trim moves "
+                                 "([aero.cfd] trim_iterations = {})", c.aero.cfd.trim_iterations),
+                     "[aero.cfd] trim_iterations = 0 (or remove [derivatives.pitch_oscillation])");
+}
+
 Case load_case(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path, "", "no such file", "a TOML case file");
   toml::table root;
@@ -768,24 +786,11 @@ Case load_case(const std::string& path) {
     auto& o = c.derivatives.pitch_oscillation;
     o.enabled = true;
     o.amplitude_deg = po.positive_in("amplitude_deg", o.amplitude_deg, 0.01, 15, "an amplitude in degrees");
-    o.period_wingbeats = po.integer_or("period_wingbeats", o.period_wingbeats, 2, 1000);
+    o.period_wingbeats = po.integer_or("period_wingbeats", o.period_wingbeats, 3, 1000);
     o.periods = po.integer_or("periods", o.periods, 1, 100);
     o.transient_wingbeats = po.integer_or("transient_wingbeats", o.period_wingbeats, 0, 10000);
     po.reject_unknown();
-    if (c.aero.model != "cfd")
-      throw InputError(path, "derivatives.pitch_oscillation",
-                       "a forced pitch oscillation is a CFD run (the quasi-steady model has no wake to lag), but "
-                       "[aero] model is \"" + c.aero.model + "\"",
-                       "[aero] model = \"cfd\" (or remove [derivatives.pitch_oscillation])");
-    if (c.derivatives.columns == "lateral")
-      throw InputError(path, "derivatives.pitch_oscillation",
-                       "a pitch oscillation completes a longitudinal table, but [derivatives] columns is \"lateral\"",
-                       "columns = \"longitudinal\" or \"all\" (or remove [derivatives.pitch_oscillation])");
-    if (c.aero.cfd.trim_iterations > 0)
-      throw InputError(path, "derivatives.pitch_oscillation",
-                       fmt::format("the oscillation runs about the kept hover's kinematics, which a CFD trim moves "
-                                   "([aero.cfd] trim_iterations = {})", c.aero.cfd.trim_iterations),
-                       "[aero.cfd] trim_iterations = 0 (or remove [derivatives.pitch_oscillation])");
+    check_pitch_oscillation(c);
   }
   der.reject_unknown();
 

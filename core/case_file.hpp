@@ -224,6 +224,9 @@ const std::vector<std::string>& trim_parameter_names();
 
 // Loads and validates a case file. Throws InputError(file, key, problem, expected).
 Case load_case(const std::string& path);
+// [derivatives.pitch_oscillation] against the rest of the case (load_case calls it; so does a CFD study of a case
+// built in code): it needs [aero] model = "cfd", a longitudinal table and no CFD trim. InputError naming the key.
+void check_pitch_oscillation(const Case& c);
 // The CFD geometry is one rigid body with one or two pairs of wings: InputError naming `path` and `key` (empty: the
 // section, "abdomen") for an abdomen. load_case calls it for model = "cfd", flapstab cfd for every case.
 void check_cfd_geometry(const Insect& insect, const std::string& path, const std::string& key = "");

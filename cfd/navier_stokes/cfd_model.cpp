@@ -730,8 +730,8 @@ void CfdModel::continue_reference(int k) const {
 
 PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const Kinematics& kin,
                                                    const PitchOscillationSpec& spec) const {
-  if (!(spec.amplitude > 0) || spec.period_wingbeats < 2 || spec.periods < 1 || spec.transient() < 0)
-    throw std::invalid_argument("CfdModel::pitch_oscillation: amplitude > 0, period >= 2 wingbeats, periods >= 1");
+  if (!(spec.amplitude > 0) || spec.period_wingbeats < 3 || spec.periods < 1 || spec.transient() < 0)
+    throw std::invalid_argument("CfdModel::pitch_oscillation: amplitude > 0, period >= 3 wingbeats, periods >= 1");
   // Checked before anything runs: other kinematics would first make a perturbed run of their own.
   if (st_ && fingerprint(insect, kin) != st_->base_print)
     throw SolveError("cfd model: a pitch oscillation runs about the base hover's kinematics only");
@@ -769,6 +769,10 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
         o.difference.force[i] = w.at("dF_N").at(std::size_t(i)).get<double>();
         o.difference.moment[i] = w.at("dM_N_m").at(std::size_t(i)).get<double>();
       }
+      if (w.contains("dW_steps"))  // [dFx dFy dFz dMx dMy dMz] per step
+        for (const auto& d : w.at("dW_steps"))
+          o.steps.push_back(Wrench{Vec3(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>()),
+                                   Vec3(d.at(3).get<double>(), d.at(4).get<double>(), d.at(5).get<double>())});
       r.wingbeats.push_back(o);
     }
     earlier_seconds = j->at("wall_s").get<double>();
@@ -805,11 +809,11 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     // From the hover, whose far field is at rest: the body starts turning at q(0) impulsively.
     if (kept) sim.restore(*kept);
     else sim.restore(st.hover_state, BodyMotion{});
-    say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} periods "
+    say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} period{} "
                     "fitted)\n",
                     label, spec.amplitude * r.omega,
                     kept ? fmt::format("its wingbeat {}", r.wingbeats.size()) : std::string("the kept hover state"),
-                    needed, spec.transient(), spec.periods));
+                    needed, spec.transient(), spec.periods, spec.periods == 1 ? "" : "s"));
     const auto t0 = clock_type::now();
     for (int k = int(r.wingbeats.size()) + 1; k <= needed; ++k) {
       std::vector<Wrench> loads;
@@ -831,7 +835,8 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
         const PitchAngle a = pitch_oscillation_angle(spec, T, times[std::size_t(i)] - start);
         o.theta += a.theta / n;
         o.rate += a.rate / n;
-        o.difference += (1.0 / n) * (loads[std::size_t(i)] + (-1.0) * ref[std::size_t(i)].total());
+        o.steps.push_back(loads[std::size_t(i)] + (-1.0) * ref[std::size_t(i)].total());
+        o.difference += (1.0 / n) * o.steps.back();
       }
       r.wingbeats.push_back(o);
       say(fmt::format("  wingbeat {:>2}: theta {:+.3f} deg, q {:+.4g} rad/s; difference from the hover dF = ({:+.4e}, "
@@ -843,11 +848,16 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
       if (!cache_.empty()) {
         fs::create_directories(cache_);
         nlohmann::json wj = nlohmann::json::array();
-        for (const auto& w : r.wingbeats)
+        for (const auto& w : r.wingbeats) {
+          nlohmann::json steps = nlohmann::json::array();
+          for (const Wrench& d : w.steps)
+            steps.push_back({d.force.x(), d.force.y(), d.force.z(), d.moment.x(), d.moment.y(), d.moment.z()});
           wj.push_back({{"theta_rad", w.theta},
                         {"q_rad_s", w.rate},
                         {"dF_N", {w.difference.force.x(), w.difference.force.y(), w.difference.force.z()}},
-                        {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}}});
+                        {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}},
+                        {"dW_steps", steps}});
+        }
         kept_run.keep(key, sim.state(),
                       {{"label", label}, {"amplitude_rad", spec.amplitude}, {"period_wingbeats", spec.period_wingbeats},
                        {"wingbeats", wj}, {"wall_s", r.wall_seconds}});

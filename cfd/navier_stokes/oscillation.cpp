@@ -69,6 +69,39 @@ void fit_pitch_oscillation(PitchOscillationResult& r) {
     r.fit[std::size_t(c)] = fit(first, n, c);
     r.last_period[std::size_t(c)] = fit(n - P, n, c);
   }
+  // Per phase: the fitted wingbeats' differences at step i against theta and q at that step's time,
+  // tau = ((k - 1) n + i + 1) T / n in wingbeat k (T = 2 pi / (omega P)).
+  r.phase.clear();
+  r.phase_note.clear();
+  const std::size_t steps = r.wingbeats[std::size_t(first)].steps.size();
+  for (int k = first; k < n; ++k)
+    if (r.wingbeats[std::size_t(k)].steps.size() != steps || steps == 0) {
+      r.phase_note = "the run's wingbeats hold no per-step differences (kept by an earlier flapstab; delete the run's "
+                     "files from the cache to rerun it with them)";
+      return;
+    }
+  const double T = 2 * std::numbers::pi / (r.omega * P);
+  const int m = int(steps);
+  for (int i = 0; i < m; ++i) {
+    std::vector<double> th, q;
+    std::array<std::vector<double>, 6> y;
+    for (int k = first; k < n; ++k) {
+      const PitchAngle a = pitch_oscillation_angle(r.spec, T, (double(k) * m + i + 1) * T / m);
+      th.push_back(a.theta);
+      q.push_back(a.rate);
+      const Wrench& d = r.wingbeats[std::size_t(k)].steps[std::size_t(i)];
+      for (int c = 0; c < 6; ++c) y[std::size_t(c)].push_back(c < 3 ? d.force[c] : d.moment[c - 3]);
+    }
+    std::array<OscillationFit, 6> at;
+    try {
+      for (std::size_t c = 0; c < 6; ++c) at[c] = fit_oscillation(th, q, y[c]);
+    } catch (const SolveError& e) {  // e.g. two wingbeats per period: theta and q at one phase are proportional
+      r.phase.clear();
+      r.phase_note = fmt::format("at phase step {}: {}", i + 1, e.what());
+      return;
+    }
+    r.phase.push_back(at);
+  }
 }
 
 }  // namespace flapstab::ns

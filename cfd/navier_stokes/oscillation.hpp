@@ -23,7 +23,7 @@ namespace flapstab::ns {
 
 struct PitchOscillationSpec {
   double amplitude = 0;          // theta0 (rad), nose up first
-  int period_wingbeats = 10;     // P: wingbeats per oscillation period (>= 2)
+  int period_wingbeats = 10;     // P: wingbeats per oscillation period (>= 3; at 2 the wingbeat means of q vanish)
   int transient_wingbeats = -1;  // wingbeats left out of the fit at the start (-1: P)
   int periods = 2;               // periods fitted after the transient
   int transient() const { return transient_wingbeats < 0 ? period_wingbeats : transient_wingbeats; }
@@ -47,10 +47,13 @@ OscillationFit fit_oscillation(const std::vector<double>& theta, const std::vect
                                const std::vector<double>& y);
 
 // One wingbeat of the run: means of theta (rad) and q (rad/s) at its load samples, and of the loads' difference from
-// the continued hover (body axes, moment about O; N, N m).
+// the continued hover (body axes, moment about O; N, N m); and that difference at each of its phase-locked steps
+// (steps[i] at phase (i + 1) / n of the wingbeat, n steps per wingbeat; empty in a run kept by a flapstab that did
+// not store them).
 struct OscillationWingbeat {
   double theta = 0, rate = 0;
   Wrench difference;
+  std::vector<Wrench> steps;
 };
 
 struct PitchOscillationResult {
@@ -60,12 +63,17 @@ struct PitchOscillationResult {
   // Per load component (Fx Fy Fz Mx My Mz): the fit over every wingbeat after the transient, and over the last
   // period alone (the response's convergence: the two agree once it is periodic).
   std::array<OscillationFit, 6> fit, last_period;
+  // The phase-resolved response: per phase-locked step i, the same fit of the steps' differences over the wingbeats
+  // after the transient, d_k(i) = a(i) theta(t_ki) + b(i) q(t_ki) + c(i), with theta and q at the step's own time.
+  // Empty when a fitted wingbeat has no steps; phase_note then says why.
+  std::vector<std::array<OscillationFit, 6>> phase;
+  std::string phase_note;
   double wall_seconds = 0;
   bool reused = false;
 };
 
-// The fits of a run's wingbeats (the fields above from spec and wingbeats; wingbeats.size() >= transient + one
-// period).
+// The fits of a run's wingbeats (the fields above from spec, omega and wingbeats; wingbeats.size() >= transient + one
+// period), the phase-resolved ones included.
 void fit_pitch_oscillation(PitchOscillationResult& r);
 
 }  // namespace flapstab::ns

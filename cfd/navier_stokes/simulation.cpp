@@ -25,16 +25,14 @@ constexpr double rk3_cfl_limit = 1.7320508075688772;
 // With a frame rotation, -V - Omega(t) x r.
 Boundaries far_field(const BodyMotion& motion, const SimulationOptions::FrameRotation& rotation) {
   Boundaries bc;
-  const Vec3 stream = -motion.velocity, rate = motion.rate;
+  const Vec3 stream = -motion.velocity;
+  std::function<Vec3(double)> rate = rotation.rate;
+  if (!rate && motion.rate.norm() > 0) rate = [w = motion.rate](double) { return w; };
   for (int f = 0; f < 6; ++f) {
     bc.face[std::size_t(f)].type = BC::velocity;
     if (stream.norm() > 0) bc.face[std::size_t(f)].velocity = [stream](double) { return stream; };
-    if (rotation.rate)
-      bc.face[std::size_t(f)].field = [stream, w = rotation.rate](double t, const Vec3& x) {
-        return Vec3(stream - w(t).cross(x));
-      };
-    else if (rate.norm() > 0)
-      bc.face[std::size_t(f)].field = [stream, rate](double, const Vec3& x) { return Vec3(stream - rate.cross(x)); };
+    if (rate)
+      bc.face[std::size_t(f)].field = [stream, rate](double t, const Vec3& x) { return Vec3(stream - rate(t).cross(x)); };
   }
   bc.face[std::size_t(face(2, 1))] = FaceCondition{BC::outflow, {}, {}};
   return bc;

@@ -191,13 +191,11 @@ double Solver::time_step(double conv) const {
 void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   const double adt = c.alpha() * dt;
   predict(grid_, u_, p_, rhs_u_, ustar_, opt_.nu, dt, c);
-  if (opt_.frame_rate_at) {
-    const Vec3 from = opt_.frame_rate_at(t_stage - adt), to = opt_.frame_rate_at(t_stage);
-    if (from.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, from, dt, c);
-    add_rotation(grid_, ustar_, from - to);  // the Euler acceleration's integral over the stage
-  } else if (opt_.frame_rate.squaredNorm() > 0) {
-    add_coriolis(grid_, u_, rhs_u_, ustar_, opt_.frame_rate, dt, c);
-  }
+  // A turning frame: Coriolis at the stage's starting rate (like the convection), and the Euler acceleration's
+  // integral over the stage where the rate changes.
+  const Vec3 from = opt_.rate_at(t_stage - adt), to = opt_.rate_at(t_stage);
+  if (from.squaredNorm() > 0) add_coriolis(grid_, u_, rhs_u_, ustar_, from, dt, c);
+  if (from != to) add_rotation(grid_, ustar_, from - to);
   relax(ustar_, adt, t_stage);
   impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
   if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);

@@ -111,6 +111,46 @@ TEST(Derivatives, RateColumnsTakeTheirOwnStep) {
   EXPECT_NEAR(ph.rate_step, d.rate_step, 1e-12 * d.rate_step);
 }
 
+// with_pitch_columns (the forced pitch oscillation's phase-resolved columns in the A(t)): the runs' own q column with
+// no attitude derivative gives the A(t) back; an attitude derivative dM/dtheta enters the theta column of A(t) through
+// the mass matrix exactly as the same dM/dq enters the q column; the lateral rows of the q column stay the runs'.
+TEST(Derivatives, PitchColumnsReplaceTheRateColumnAndAddTheAttitudeColumn) {
+  const Trimmed& tr = trimmed_case();
+  const auto d = cycle_averaged_derivatives(*tr.model, tr.c.insect, tr.t.kinematics, tr.c.fluid, 0.01);
+  const PhaseDerivatives ph =
+      phase_resolved_from_runs(*tr.model, tr.c.insect, tr.t.kinematics, d.table.reference, 0.01);
+  const std::size_t N = ph.samples.size();
+  ASSERT_GE(N, 3u);
+  std::vector<WrenchColumn> rate(N), zero(N, WrenchColumn::Zero()), bump(N, WrenchColumn::Zero());
+  for (std::size_t k = 0; k < N; ++k) {
+    rate[k] = ph.samples[k].wrench_si.col(4);
+    bump[k](4) = 1e-3 * (1 + 0.5 * std::sin(6.283185307179586 * double(k) / double(N)));  // dM, N m per rad or s
+  }
+  const PhaseDerivatives same = with_pitch_columns(ph, *tr.model, tr.c.insect, tr.t.kinematics, rate, zero);
+  ASSERT_EQ(same.samples.size(), N);
+  for (std::size_t k = 0; k < N; ++k)
+    EXPECT_LT((same.samples[k].system_si - ph.samples[k].system_si).norm(), 1e-12 * ph.samples[k].system_si.norm())
+        << k;
+  std::vector<WrenchColumn> moved = rate;
+  for (std::size_t k = 0; k < N; ++k) moved[k](4) += bump[k](4);
+  const PhaseDerivatives by_rate = with_pitch_columns(ph, *tr.model, tr.c.insect, tr.t.kinematics, moved, zero);
+  const PhaseDerivatives by_attitude = with_pitch_columns(ph, *tr.model, tr.c.insect, tr.t.kinematics, rate, bump);
+  for (std::size_t k = 0; k < N; ++k) {
+    const Eigen::VectorXd dq = by_rate.samples[k].system_si.col(4) - ph.samples[k].system_si.col(4);
+    const Eigen::VectorXd dtheta = by_attitude.samples[k].system_si.col(7) - ph.samples[k].system_si.col(7);
+    ASSERT_GT(dq.norm(), 0.0);
+    EXPECT_LT((dq - dtheta).norm(), 1e-9 * dq.norm()) << k;
+    EXPECT_EQ(by_attitude.samples[k].system_si.col(4), ph.samples[k].system_si.col(4)) << k;
+    EXPECT_EQ(by_attitude.samples[k].attitude_si(4, 1), bump[k](4));
+  }
+  std::vector<WrenchColumn> lateral = rate;
+  lateral[0](3) += 1.0;  // an L row: not used
+  EXPECT_EQ(with_pitch_columns(ph, *tr.model, tr.c.insect, tr.t.kinematics, lateral, zero).samples[0].system_si,
+            same.samples[0].system_si);
+  EXPECT_THROW(with_pitch_columns(ph, *tr.model, tr.c.insect, tr.t.kinematics, std::vector<WrenchColumn>(N - 1), zero),
+               SolveError);
+}
+
 // A model whose w+ run fails (as a CFD run that diverges): make_derivative_runs goes on with the other runs, in
 // table order, and reports the one failure; the derivatives of the finished columns then come from runs the model
 // has already made (here: the quasi-steady model's answers, the same numbers as in the whole table).

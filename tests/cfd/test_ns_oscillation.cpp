@@ -81,6 +81,53 @@ TEST(PitchOscillation, FitOfASinusoidIsItsInPhaseAndQuadratureParts) {
   EXPECT_THROW(fit_oscillation({0.1, 0.2}, {1, 2}, {3, 4}), SolveError);
 }
 
+// A response that is linear and time-periodic in theta and q, d(t) = a(phi) theta(t) + b(phi) q(t) + c(phi) with
+// a, b, c varying over the wingbeat phase phi, is recovered step by step from the wingbeats' phase-locked steps:
+// the fit at step i returns a(phi_i), b(phi_i), c(phi_i) to rounding. Without the steps (a run kept by an earlier
+// flapstab) there is no phase-resolved fit and phase_note says why.
+TEST(PitchOscillation, PhaseFitsRecoverALinearTimePeriodicResponse) {
+  PitchOscillationResult r;
+  r.spec.amplitude = 2 * deg;
+  r.spec.period_wingbeats = 5;
+  r.spec.transient_wingbeats = 2;
+  r.spec.periods = 1;
+  const double T = 0.025;
+  r.omega = 2 * std::numbers::pi / (r.spec.period_wingbeats * T);
+  const int n = 16;
+  auto a = [](int i, int c) { return 1e-3 * (c + 1) * (1 + 0.5 * std::sin(2 * std::numbers::pi * (i + 1) / n)); };
+  auto b = [](int i, int c) { return -2e-5 * (c + 2) * std::cos(4 * std::numbers::pi * (i + 1) / n); };
+  auto k0 = [](int i, int c) { return 3e-6 * (i - c); };
+  for (int k = 0; k < r.spec.wingbeats(); ++k) {
+    OscillationWingbeat w;
+    for (int i = 0; i < n; ++i) {
+      const PitchAngle ang = pitch_oscillation_angle(r.spec, T, (double(k) * n + i + 1) * T / n);
+      Wrench d;
+      for (int c = 0; c < 6; ++c)
+        (c < 3 ? d.force[c] : d.moment[c - 3]) = a(i, c) * ang.theta + b(i, c) * ang.rate + k0(i, c);
+      w.steps.push_back(d);
+      w.theta += ang.theta / n;
+      w.rate += ang.rate / n;
+      w.difference += (1.0 / n) * d;
+    }
+    r.wingbeats.push_back(w);
+  }
+  fit_pitch_oscillation(r);
+  ASSERT_EQ(r.phase.size(), std::size_t(n)) << r.phase_note;
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 6; ++c) {
+      const OscillationFit& f = r.phase[std::size_t(i)][std::size_t(c)];
+      EXPECT_NEAR(f.theta, a(i, c), 1e-10 * std::abs(a(i, c))) << i << " " << c;
+      EXPECT_NEAR(f.rate, b(i, c), 1e-10 * 2e-5 * (c + 2)) << i << " " << c;
+      EXPECT_NEAR(f.constant, k0(i, c), 1e-9 * 3e-6 * n) << i << " " << c;
+    }
+  PitchOscillationResult old = r;
+  old.wingbeats[3].steps.clear();
+  fit_pitch_oscillation(old);
+  EXPECT_TRUE(old.phase.empty());
+  EXPECT_NE(old.phase_note.find("no per-step differences"), std::string::npos) << old.phase_note;
+  EXPECT_EQ(old.fit[4].rate, r.fit[4].rate);  // the wingbeat fits do not need the steps
+}
+
 // With a cache directory the oscillation keeps its state and wingbeats: a later call asking for another period
 // continues the run instead of starting again, and gives the uninterrupted run's wingbeats bit for bit; asking for
 // no more than was run reuses it without a step.
@@ -110,8 +157,13 @@ TEST(CfdModel, PitchOscillationIsContinuedFromItsCacheBitForBit) {
     EXPECT_EQ(a.wingbeats[k].difference.force, b.wingbeats[k].difference.force) << k;
     EXPECT_EQ(a.wingbeats[k].difference.moment, b.wingbeats[k].difference.moment) << k;
     EXPECT_EQ(a.wingbeats[k].theta, b.wingbeats[k].theta) << k;
+    ASSERT_EQ(a.wingbeats[k].steps.size(), std::size_t(c.aero.cfd.steps_per_cycle)) << k;
+    for (std::size_t i = 0; i < a.wingbeats[k].steps.size(); ++i)
+      ASSERT_EQ(a.wingbeats[k].steps[i].moment, b.wingbeats[k].steps[i].moment) << k << " " << i;
   }
   EXPECT_EQ(a.fit[4].rate, b.fit[4].rate);
+  ASSERT_EQ(a.phase.size(), std::size_t(c.aero.cfd.steps_per_cycle)) << a.phase_note;
+  EXPECT_EQ(a.phase[7][4].rate, b.phase[7][4].rate);
   const CfdModel third(c, nullptr, dir);
   const PitchOscillationResult r = third.pitch_oscillation(c.insect, c.kinematics, one);
   EXPECT_TRUE(r.reused);

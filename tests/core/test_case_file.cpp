@@ -122,7 +122,7 @@ TEST(CaseFile, PitchOscillationTakesItsDefaultsAndRefusesOutOfRangeValues) {
   EXPECT_EQ(e.transient_wingbeats, 7);
   EXPECT_EQ(po("period_wingbeats = 7\ntransient_wingbeats = 0\n").transient_wingbeats, 0);
   for (const auto& [keys, key] : {std::pair<std::string, std::string>{"amplitude_deg = 20.0\n", "amplitude_deg"},
-                                  {"period_wingbeats = 1\n", "period_wingbeats"},
+                                  {"period_wingbeats = 2\n", "period_wingbeats"},
                                   {"periods = 0\n", "periods"},
                                   {"period = 10\n", "period"}})
     testing::expect_input_error([&] { po(keys); }, "derivatives.pitch_oscillation." + key);
