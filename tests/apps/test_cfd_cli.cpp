@@ -538,8 +538,34 @@ TEST(CfdCli, HelpDescribesTheOptions) {
 }
 
 
-// The CFD stability chain refuses, before any CFD run, a derivative step whose load changes (predicted by the
-// quasi-steady model) the periodic convergence cannot resolve: exit 2, the key and the numbers, nothing written.
+// `flapstab derivatives` on a case text into a fresh directory: exit status, stdout, stderr and derivatives.json
+// (null when none was written).
+struct DerivativesRun {
+  int rc = -1;
+  std::string out, err;
+  nlohmann::json json;
+};
+DerivativesRun run_derivatives(const std::string& text, const std::string& name) {
+  const std::string path = write_temp("cfdcli_" + name + ".toml", text);
+  const fs::path dir = fs::path(path).parent_path() / ("cfdcli_" + name + "_dir");
+  fs::remove_all(dir);
+  const std::string outfile = write_temp("cfd_" + name + "_stdout.txt", "");
+  const std::string errfile = write_temp("cfd_" + name + "_stderr.txt", "");
+  DerivativesRun r;
+  r.rc = WEXITSTATUS(std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() +
+                                  " > " + outfile + " 2> " + errfile).c_str()));
+  auto slurp = [](const std::string& f) {
+    std::ifstream in(f);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  r.out = slurp(outfile);
+  r.err = slurp(errfile);
+  if (fs::exists(dir / "derivatives.json")) r.json = nlohmann::json::parse(slurp((dir / "derivatives.json").string()));
+  return r;
+}
+
 // With [aero.cfd.fpm] a CFD derivative table comes with its velocity columns split by mechanism (the force partition's
 // window-mean differences of the same runs): in derivatives.json and on the terminal, one row per partitioned load
 // and velocity column, the rate column left out (its grid turns). The table's own value is carried beside; the
@@ -547,21 +573,10 @@ TEST(CfdCli, HelpDescribesTheOptions) {
 TEST(CfdCli, DerivativesWithForcePartitioningAreSplitByMechanism) {
   const std::string text = small_cfd_analysis() +
                            "\n[aero.cfd.fpm]\nsamples_per_cycle = 20\ncomponents = [\"Fx\", \"Fz\", \"My\"]\n";
-  const std::string path = write_temp("cfdcli_split.toml", text);
-  const fs::path dir = fs::path(path).parent_path() / "cfdcli_split_dir";
-  fs::remove_all(dir);
-  const std::string outfile = write_temp("cfd_split_stdout.txt", ""), errfile = write_temp("cfd_split_stderr.txt", "");
-  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() + " > " +
-                              outfile + " 2> " + errfile).c_str());
-  auto slurp = [](const std::string& f) {
-    std::ifstream in(f);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  const std::string out = slurp(outfile);
-  ASSERT_EQ(WEXITSTATUS(rc), 0) << slurp(errfile);
-  const nlohmann::json j = nlohmann::json::parse(slurp((dir / "derivatives.json").string()));
+  const DerivativesRun r = run_derivatives(text, "split");
+  ASSERT_EQ(r.rc, 0) << r.err;
+  const std::string& out = r.out;
+  const nlohmann::json& j = r.json;
   const auto& split = j.at("cfd").at("derivatives_by_mechanism");
   std::vector<std::string> names;
   for (const auto& m : split) {
@@ -588,21 +603,10 @@ TEST(CfdCli, PitchOscillationGivesAFloquetAnalysisWithItsColumns) {
   const std::string text = small_cfd_analysis() +
                            "\n[derivatives.pitch_oscillation]\namplitude_deg = 2\nperiod_wingbeats = 4\n"
                            "transient_wingbeats = 2\nperiods = 1\n";
-  const std::string path = write_temp("cfdcli_osc.toml", text);
-  const fs::path dir = fs::path(path).parent_path() / "cfdcli_osc_dir";
-  fs::remove_all(dir);
-  const std::string outfile = write_temp("cfd_osc_stdout.txt", ""), errfile = write_temp("cfd_osc_stderr.txt", "");
-  const int rc = std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() + " > " +
-                              outfile + " 2> " + errfile).c_str());
-  auto slurp = [](const std::string& f) {
-    std::ifstream in(f);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  const std::string out = slurp(outfile);
-  ASSERT_EQ(WEXITSTATUS(rc), 0) << slurp(errfile);
-  const nlohmann::json j = nlohmann::json::parse(slurp((dir / "derivatives.json").string()));
+  const DerivativesRun r = run_derivatives(text, "osc");
+  ASSERT_EQ(r.rc, 0) << r.err;
+  const std::string& out = r.out;
+  const nlohmann::json& j = r.json;
   const auto& po = j.at("cfd").at("pitch_oscillation");
   EXPECT_EQ(po.at("floquet_note").get<std::string>(), "");
   ASSERT_TRUE(po.at("floquet_longitudinal").is_object()) << po.dump(1);
@@ -630,6 +634,8 @@ TEST(CfdCli, PitchOscillationGivesAFloquetAnalysisWithItsColumns) {
   EXPECT_NE(out.find("with the oscillation's phase-resolved q and theta columns"), std::string::npos) << out;
 }
 
+// The CFD stability chain refuses, before any CFD run, a derivative step whose load changes (predicted by the
+// quasi-steady model) the periodic convergence cannot resolve: exit 2, the key and the numbers, nothing written.
 TEST(CfdCli, DerivativeStepTooSmallForTheCfdRunsIsBadInput) {
   std::string text = with_cfd(std::string(tiny) + "steps_per_cycle = 60\nperturbation_tolerance = 0.005\n");
   text += "\n[derivatives]\nrelative_step = 0.001\n";
