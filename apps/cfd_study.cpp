@@ -421,6 +421,8 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
       } catch (const std::exception& e) {
         ps.floquet_note = e.what();
       }
+    } else {
+      ps.floquet_note = "the table has no longitudinal columns";
     }
     if (!ps.floquet)
       s.notices.push_back("pitch oscillation: no Floquet analysis with its columns: " + ps.floquet_note);

@@ -866,6 +866,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     say(fmt::format("cfd model: {} done: {} wingbeats in {:.1f} s\n", label, needed, r.wall_seconds));
   }
   fit_pitch_oscillation(r);
+  if (r.phase.empty() && !cache_.empty()) r.phase_note += " (" + json_file + ")";
   return r;
 }
 

@@ -77,7 +77,7 @@ void fit_pitch_oscillation(PitchOscillationResult& r) {
   for (int k = first; k < n; ++k)
     if (r.wingbeats[std::size_t(k)].steps.size() != steps || steps == 0) {
       r.phase_note = "the run's wingbeats hold no per-step differences (kept by an earlier flapstab; delete the run's "
-                     "files from the cache to rerun it with them)";
+                     "pitch_KEY.json and .h5 from the run cache to make it again with them)";
       return;
     }
   const double T = 2 * std::numbers::pi / (r.omega * P);
@@ -95,7 +95,7 @@ void fit_pitch_oscillation(PitchOscillationResult& r) {
     std::array<OscillationFit, 6> at;
     try {
       for (std::size_t c = 0; c < 6; ++c) at[c] = fit_oscillation(th, q, y[c]);
-    } catch (const SolveError& e) {  // e.g. two wingbeats per period: theta and q at one phase are proportional
+    } catch (const SolveError& e) {  // theta, q and a constant dependent at one phase (not expected for P >= 3)
       r.phase.clear();
       r.phase_note = fmt::format("at phase step {}: {}", i + 1, e.what());
       return;
