@@ -112,6 +112,20 @@ std::string fmt_c(std::complex<double> z) {
   return fmt::format("{:+.4f} {} {:.4f}i", z.real(), z.imag() < 0 ? "-" : "+", std::abs(z.imag()));
 }
 
+// "Floquet multipliers of the CFD A(t)<what>, <name> [states]: mu (|mu|, growth ln|mu| per wingbeat[, period
+// 2 pi / arg mu wingbeats]); ...", one line; a conjugate pair's period once, with its member of positive arg.
+std::string floquet_markdown(const FloquetAnalysis& f, const std::string& what) {
+  std::string m = fmt::format("\nFloquet multipliers of the CFD A(t){}, {} [{}]:", what, f.name,
+                              fmt::join(f.state_order, ", "));
+  for (const auto& mu : f.multipliers) {
+    const double arg = std::arg(mu);
+    m += fmt::format(" {} (|mu| {:.4f}, {:+.4f} per wingbeat{});", fmt_c(mu), std::abs(mu), std::log(std::abs(mu)),
+                     arg > 1e-12 ? fmt::format(", period {:.1f} wingbeats", 2 * std::numbers::pi / arg)
+                                 : std::string());
+  }
+  return m + "\n";
+}
+
 }  // namespace
 
 void quasi_steady_start(const Case& c, const AeroModel& qs_model, TrimResult& trim, DerivativeResult& derivatives) {
@@ -603,12 +617,7 @@ std::string pitch_oscillation_markdown(const PitchOscillationStudy& p, const Der
         break;
       }
   }
-  if (p.floquet) {
-    m += fmt::format("\nFloquet multipliers of the CFD A(t) with the oscillation's phase-resolved q and theta columns, "
-                     "{} [{}]:", p.floquet->name, fmt::join(p.floquet->state_order, ", "));
-    for (const auto& mu : p.floquet->multipliers) m += fmt::format(" {} (|mu| {:.4f});", fmt_c(mu), std::abs(mu));
-    m += "\n";
-  }
+  if (p.floquet) m += floquet_markdown(*p.floquet, " with the oscillation's phase-resolved q and theta columns");
   return m;
 }
 
@@ -681,12 +690,8 @@ std::string cfd_study_markdown(const CfdStudy& s) {
                        derivative_name(b.row, b.column), b.total, b.run_pressure, b.friction, b.pressure,
                        b.added_mass(), b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure);
   }
-  for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral}) {
-    if (!*f) continue;
-    m += fmt::format("\nFloquet multipliers of the CFD A(t), {} [{}]:", (*f)->name, fmt::join((*f)->state_order, ", "));
-    for (const auto& mu : (*f)->multipliers) m += fmt::format(" {} (|mu| {:.4f});", fmt_c(mu), std::abs(mu));
-    m += "\n";
-  }
+  for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral})
+    if (*f) m += floquet_markdown(**f, "");
   if (s.pitch_oscillation) m += pitch_oscillation_markdown(*s.pitch_oscillation, s.derivatives.table, s.qs.table);
   for (const auto& note : s.notices) m += "\n- " + note;
   return m + "\n";
