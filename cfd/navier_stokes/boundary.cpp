@@ -65,14 +65,30 @@ Boundaries Boundaries::all(BC type) {
 ScalarBCs Boundaries::pressure() const {
   ScalarBCs s{};
   for (int f = 0; f < 6; ++f)
-    s[f] = face[f].type == BC::periodic ? ScalarBC::periodic
-         : face[f].type == BC::outflow  ? ScalarBC::dirichlet
-                                        : ScalarBC::neumann;
+    s[f] = face[f].type == BC::periodic  ? ScalarBC::periodic
+         : face[f].type == BC::outflow   ? ScalarBC::dirichlet
+         : face[f].type == BC::interface ? ScalarBC::interface
+                                         : ScalarBC::neumann;
   return s;
+}
+
+Boundaries Boundaries::local(const Slab& s) const {
+  Boundaries b = *this;
+  if (s.cut_lo || s.cut_hi) {  // a periodic z axis split over ranks has two cuts: no face keeps its periodic pair
+    if (s.cut_lo) b.face[std::size_t(ns::face(2, 0))] = FaceCondition{BC::interface, {}, {}};
+    if (s.cut_hi) b.face[std::size_t(ns::face(2, 1))] = FaceCondition{BC::interface, {}, {}};
+  }
+  return b;
 }
 
 void Boundaries::check(const Grid& g) const {
   for (int a = 0; a < 3; ++a) {
+    const bool cut[2] = {g.axis[a].cut_lo, g.axis[a].cut_hi};
+    for (int side = 0; side < 2; ++side)
+      if ((type(a, side) == BC::interface) != cut[side])
+        throw std::invalid_argument(std::string("navier_stokes boundaries: face ") + name(ns::face(a, side)) +
+                                    (cut[side] ? " is a cut between ranks but not an interface"
+                                               : " is an interface but the grid has no cut there"));
     const bool lo = type(a, 0) == BC::periodic, hi = type(a, 1) == BC::periodic;
     if (lo != hi)
       throw std::invalid_argument(std::string("navier_stokes boundaries: face ") + name(ns::face(a, lo ? 0 : 1)) +
@@ -101,17 +117,19 @@ void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t, cons
       need_grid(hi, grid);
       for_each_line_at(u[a].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n, int kb, int kc) {
         real* l = q + o;
-        l[s] = lo.type != BC::velocity ? l[2 * s] : lo.field ? real(lo.at(t, wall_point(*grid, a, 0, a, kb, kc))[a]) : ulo;
-        l[(n + 1) * s] = hi.type != BC::velocity ? l[n * s]
-                         : hi.field              ? real(hi.at(t, wall_point(*grid, a, 1, a, kb, kc))[a])
-                                                 : uhi;
+        if (lo.type != BC::interface)
+          l[s] = lo.type != BC::velocity ? l[2 * s] : lo.field ? real(lo.at(t, wall_point(*grid, a, 0, a, kb, kc))[a]) : ulo;
+        if (hi.type != BC::interface)
+          l[(n + 1) * s] = hi.type != BC::velocity ? l[n * s]
+                           : hi.field              ? real(hi.at(t, wall_point(*grid, a, 1, a, kb, kc))[a])
+                                                   : uhi;
       });
       continue;
     }
     for_each_line(u[a].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n) {
       real* l = q + o;
-      l[s] = lo.type == BC::velocity ? ulo : l[2 * s];
-      l[(n + 1) * s] = hi.type == BC::velocity ? uhi : l[n * s];
+      if (lo.type != BC::interface) l[s] = lo.type == BC::velocity ? ulo : l[2 * s];
+      if (hi.type != BC::interface) l[(n + 1) * s] = hi.type == BC::velocity ? uhi : l[n * s];
     });
   }
 }
@@ -129,8 +147,8 @@ void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t, const 
           real* l = q + o;
           const double wl = lo.field ? lo.at(t, wall_point(*grid, a, 0, d, kb, kc))[d] : Ulo[d];
           const double wh = hi.field ? hi.at(t, wall_point(*grid, a, 1, d, kb, kc))[d] : Uhi[d];
-          l[0] = lo.type == BC::velocity ? real(2 * wl) - l[s] : l[s];
-          l[(n + 1) * s] = hi.type == BC::velocity ? real(2 * wh) - l[n * s] : l[n * s];
+          if (lo.type != BC::interface) l[0] = lo.type == BC::velocity ? real(2 * wl) - l[s] : l[s];
+          if (hi.type != BC::interface) l[(n + 1) * s] = hi.type == BC::velocity ? real(2 * wh) - l[n * s] : l[n * s];
         });
         continue;
       }
@@ -140,10 +158,10 @@ void fill_velocity_ghosts(VectorField& u, const Boundaries& bc, double t, const 
           l[0] = l[n * s];
           l[(n + 1) * s] = l[s];
         } else if (d == a) {  // boundary faces are set; the outer ghost only needs a finite value
-          l[0] = l[s];
+          if (lo.type != BC::interface) l[0] = l[s];
         } else {
-          l[0] = lo.type == BC::velocity ? 2 * Ulo[d] - l[s] : l[s];
-          l[(n + 1) * s] = hi.type == BC::velocity ? 2 * Uhi[d] - l[n * s] : l[n * s];
+          if (lo.type != BC::interface) l[0] = lo.type == BC::velocity ? 2 * Ulo[d] - l[s] : l[s];
+          if (hi.type != BC::interface) l[(n + 1) * s] = hi.type == BC::velocity ? 2 * Uhi[d] - l[n * s] : l[n * s];
         }
       });
     }

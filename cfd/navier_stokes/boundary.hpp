@@ -11,10 +11,11 @@ enum class BC {
   periodic,  // both faces of the axis; pressure periodic
   velocity,  // prescribed velocity (no-slip wall, moving lid, inflow); pressure Neumann
   outflow,   // zero normal gradient of every velocity component; pressure Dirichlet p = 0
+  interface, // a cut between two ranks' slabs (decomposition.hpp): ghosts from the neighbour, nothing imposed
 };
 
 // Boundary condition of the pressure-like scalars (pressure, its increment, multigrid corrections).
-enum class ScalarBC { periodic, neumann, dirichlet };
+enum class ScalarBC { periodic, neumann, dirichlet, interface };
 using ScalarBCs = std::array<ScalarBC, 6>;  // indexed by face(axis, side)
 
 constexpr int face(int axis, int side) { return 2 * axis + side; }  // side 0: lower, 1: upper
@@ -36,6 +37,8 @@ struct Boundaries {
   BC type(int axis, int side) const { return face[ns::face(axis, side)].type; }
   bool periodic(int axis) const { return type(axis, 0) == BC::periodic; }
   ScalarBCs pressure() const;
+  // A rank's conditions: the z faces that are cuts of its slab become interfaces.
+  Boundaries local(const Slab& s) const;
   // Throws unless periodic faces come in pairs and match the grid's periodic axes.
   void check(const Grid& g) const;
 };

@@ -159,7 +159,25 @@ double Axis::max_ratio() const {
   return r;
 }
 
+Axis Axis::slice(const Slab& s) const {
+  if (s.n < 1 || s.offset < 0 || s.offset + s.n > n)
+    bad("slab of cells " + std::to_string(s.offset + 1) + ".." + std::to_string(s.offset + s.n) + " outside the axis of " +
+        std::to_string(n));
+  if (!(s.cut_lo || s.cut_hi)) return *this;
+  Axis a = *this;
+  a.n = s.n;
+  a.periodic = false;
+  a.cut_lo = s.cut_lo;
+  a.cut_hi = s.cut_hi;
+  for (auto* v : {&a.xc, &a.xf, &a.dc, &a.df, &a.idc, &a.idf, &a.wlo, &a.whi, &a.dv})
+    *v = std::vector<double>(v->begin() + s.offset, v->begin() + s.offset + s.n + 2);
+  a.lo = a.xf[1];
+  a.hi = a.xf[std::size_t(s.n + 1)];
+  return a;
+}
+
 Axis Axis::coarsened() const {
+  if (cut_lo || cut_hi) bad("a rank's part of an axis is not coarsened (slice the coarsened whole axis)");
   if (!can_coarsen()) bad("axis of " + std::to_string(n) + " cells cannot be coarsened by 2");
   std::vector<double> f(n / 2 + 1);
   for (int i = 0; i <= n / 2; ++i) f[i] = xf[2 * i + 1];

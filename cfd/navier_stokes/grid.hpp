@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <vector>
+#include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/field.hpp"
 
 namespace flapstab::ns {
@@ -31,6 +32,10 @@ class Axis {
 
   int n = 0;
   bool periodic = false;
+  // A rank's part of a decomposed axis (slice()): a cut face's ghost comes from the neighbouring rank, and the
+  // staggered unknown on it belongs to the rank above (face 1 of a lower cut is an unknown here, face n + 1 of an
+  // upper cut is not), as on a periodic axis.
+  bool cut_lo = false, cut_hi = false;
   double lo = 0, hi = 0;
   // padded arrays, size n+2
   std::vector<double> xc;    // cell centre
@@ -46,6 +51,13 @@ class Axis {
   double max_ratio() const;  // largest ratio of neighbouring cell widths (across the periodic seam too)
   bool can_coarsen() const { return n % 2 == 0; }
   Axis coarsened() const;    // every other face
+  // Cells offset + 1 .. offset + n of this axis as a rank's part, with its cuts; the metric arrays (ghosts
+  // included) are this axis's own at those indices.
+  Axis slice(const Slab& s) const;
+  // Whether face 1 (lower) is a staggered unknown of this rank, and whether face n + 1 (upper) is a boundary
+  // face it owns: an unknown of the rank above, or the periodic image of face 1, otherwise.
+  bool lower_face_unknown() const { return periodic || cut_lo; }
+  bool owns_upper_face() const { return !periodic && !cut_hi; }
 };
 
 // Where x falls on coordinates c[lo..hi] (increasing): index i with c[i] <= x < c[i+1], clamped to [lo, hi - 1], and
@@ -83,6 +95,7 @@ struct Grid {
     return x;
   }
   std::array<double, 3> centre(int i, int j, int k) const { return {axis[0].xc[i], axis[1].xc[j], axis[2].xc[k]}; }
+  Grid slice_z(const Slab& s) const { return Grid(axis[0], axis[1], axis[2].slice(s)); }  // a rank's slab
 };
 
 }  // namespace flapstab::ns

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include "cfd/navier_stokes/krylov.hpp"
 
 namespace flapstab::ns {
@@ -22,6 +23,7 @@ constexpr mg omega = 1.3f;
 
 struct Multigrid::Level {
   Grid grid;
+  ScalarBCs bc;
   Stencil<mg> L;
   std::vector<mg> x, b;   // solution, right-hand side (padded like the grid, in the line layout)
   std::vector<mg> idiag;  // 1/diagonal, coarsest level only (the smoother divides: a stored array costs bandwidth)
@@ -42,8 +44,11 @@ struct Multigrid::Level {
   std::vector<int> pc0, pc1;                 // x prolongation in fine slot order, coarse indices as coarse slots
   std::vector<mg> pw0, pw1;
 
-  Level(Grid g, const ScalarBCs& bc)
-      : grid(std::move(g)), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0) {}
+  Slab slab;                // a distributed level: this rank's planes of the whole level
+  bool distributed = false;
+
+  Level(Grid g, const ScalarBCs& bc_)
+      : grid(std::move(g)), bc(bc_), L(grid, bc), x(L.s.size(), 0), b(L.s.size(), 0) {}
   int threads() const { return threaded(L.s) ? std::max(1, std::min(omp_get_max_threads(), L.s.nz / 4)) : 1; }
   int evens() const { return L.s.nx / 2; }         // even i of 1 .. nx: slots 1 .. evens()
   int odds() const { return (L.s.nx + 1) / 2; }    // odd i of 1 .. nx: slots he .. he + odds() - 1
@@ -95,9 +100,7 @@ void fill_plane_ghosts(Level& V, int k) {
 }
 
 // Box-condition ghosts of a whole level, on its line layout.
-void fill_level_ghosts(Level& V, const ScalarBCs& bc) {
-  fill_scalar_ghosts(V.L.s, V.x.data(), bc, V.split ? V.slot.data() : nullptr);
-}
+void fill_level_ghosts(Level& V) { fill_scalar_ghosts(V.L.s, V.x.data(), V.bc, V.split ? V.slot.data() : nullptr); }
 
 void fill_z_ghosts(Level& V) {
   const Shape& s = V.L.s;
@@ -242,9 +245,18 @@ void fused_sweeps(Level& V, int first, int count, bool zero, const real* rd, rea
   }
 }
 
+// One colour's half-sweep on every plane of a distributed level (its z ghosts exchanged before): the neighbours'
+// planes are the other rank's, so the planes are not fused into one pass as on a single rank. Local and global
+// plane parities agree (slab offsets are even on these levels), so the colouring is the single-rank one.
+void sweep_slab(Level& V, int colour, bool zero, const real* rd, real* zd) {
+#pragma omp parallel for schedule(static) num_threads(V.threads())
+  for (int k = 1; k <= V.L.s.nz; ++k) relax_plane(V, k, colour, zero, rd, zd);
+}
+
 // Coarse right-hand side on the coarse line (J, K): volume-weighted mean of the fine residual b - L x (fine level
-// split, coarse level in its own layout; acc is indexed by fine slot).
-FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* acc) {
+// split, coarse level in its own layout; acc is indexed by fine slot). The coarse line is K + koff of C (koff > 0:
+// C is a whole level and F this rank's slab).
+FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* acc, int koff) {
   const Shape &s = C.L.s, &fs = F.L.s;
   const mg* __restrict vx = F.vx.data();
   mg* __restrict ac = acc;
@@ -263,11 +275,11 @@ FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* a
         for (int q = h.lo; q <= h.hi; ++q) ac[q] += vjk * vx[q] * (br[q] - r.apply(x, xw, q));
       }
     }
-  mg* __restrict out = C.b.data() + s(0, J, K);
+  mg* __restrict out = C.b.data() + s(0, J, K + koff);
   const mg* __restrict cvx = C.vx.data();
   const int* __restrict fsl = F.slot.data();
   const int* __restrict csl = C.slot.data();
-  const mg ivjk = 1 / (C.L.vol[1][J] * C.L.vol[2][K]);
+  const mg ivjk = 1 / (C.L.vol[1][J] * C.L.vol[2][K + koff]);
   if (F.f[0] == 2) {
     for (int I = 1; I <= s.nx; ++I) out[csl[I]] = (ac[fsl[2 * I - 1]] + ac[fsl[2 * I]]) * ivjk / cvx[csl[I]];
   } else {
@@ -275,13 +287,14 @@ FLAPSTAB_KERNEL void restrict_line(const Level& F, Level& C, int J, int K, mg* a
   }
 }
 
-void restrict_residual(const Level& F, Level& C) {
+void restrict_residual(const Level& F, Level& C, int koff) {
+  const int nK = F.L.s.nz / F.f[2];  // C's planes below F's planes (all of C's unless C is whole and F a slab)
 #pragma omp parallel num_threads(F.threads())
   {
     std::vector<mg> acc(F.L.s.nx + 2);
 #pragma omp for schedule(static)
-    for (int K = 1; K <= C.L.s.nz; ++K)
-      for (int J = 1; J <= C.L.s.ny; ++J) restrict_line(F, C, J, K, acc.data());
+    for (int K = 1; K <= nK; ++K)
+      for (int J = 1; J <= C.L.s.ny; ++J) restrict_line(F, C, J, K, acc.data(), koff);
   }
 }
 
@@ -392,26 +405,92 @@ void solve_coarsest(Level& V, bool singular, const ScalarBCs& bc) {
 
 }  // namespace
 
-Multigrid::Multigrid(const Grid& g, const ScalarBCs& bc) : bc_(bc) {
-  singular_ = std::none_of(bc.begin(), bc.end(), [](ScalarBC b) { return b == ScalarBC::dirichlet; });
-  levels_.emplace_back(g, bc);
+namespace {
+
+// The whole grids of the hierarchy, finest first, and the coarsening factors from each to the next.
+struct Hierarchy {
+  std::vector<Grid> grids;
+  std::vector<std::array<int, 3>> f;
+};
+
+Hierarchy hierarchy(const Grid& g) {
+  Hierarchy h;
+  h.grids.push_back(g);
   for (;;) {
-    Level& F = levels_.back();
+    const Grid& F = h.grids.back();
     // Coarsen the directions whose spacing is within 2x the smallest (coarse cells must not flatten, which point
     // smoothers handle badly), or every direction that can if none of those can.
     std::array<bool, 3> c{}, can{};
     double hmin = 1e300;
-    for (int a = 0; a < 3; ++a) hmin = std::min(hmin, F.grid.axis[a].min_width());
+    for (int a = 0; a < 3; ++a) hmin = std::min(hmin, F.axis[a].min_width());
     for (int a = 0; a < 3; ++a) {
-      can[a] = F.grid.axis[a].can_coarsen();
-      c[a] = can[a] && F.grid.axis[a].min_width() <= 2 * hmin * (1 + 1e-12);
+      can[a] = F.axis[a].can_coarsen();
+      c[a] = can[a] && F.axis[a].min_width() <= 2 * hmin * (1 + 1e-12);
     }
     if (!(c[0] || c[1] || c[2])) c = can;
     if (!(c[0] || c[1] || c[2])) break;
-    Grid coarse(c[0] ? F.grid.axis[0].coarsened() : F.grid.axis[0], c[1] ? F.grid.axis[1].coarsened() : F.grid.axis[1],
-                c[2] ? F.grid.axis[2].coarsened() : F.grid.axis[2]);
-    for (int a = 0; a < 3; ++a) F.f[a] = c[a] ? 2 : 1;
-    levels_.emplace_back(std::move(coarse), bc);
+    Grid coarse(c[0] ? F.axis[0].coarsened() : F.axis[0], c[1] ? F.axis[1].coarsened() : F.axis[1],
+                c[2] ? F.axis[2].coarsened() : F.axis[2]);
+    h.f.push_back({c[0] ? 2 : 1, c[1] ? 2 : 1, c[2] ? 2 : 1});
+    h.grids.push_back(std::move(coarse));
+  }
+  return h;
+}
+
+int z_unit_of(const Hierarchy& h, int ranks) {
+  const int nz = h.grids[0].axis[2].n;
+  int F = 1, unit = 1;
+  for (const auto& f : h.f) {
+    F *= f[2];
+    if (nz / F >= ranks) unit = F;
+  }
+  return unit;
+}
+
+}  // namespace
+
+int Multigrid::z_unit(const Grid& g, int ranks) { return z_unit_of(hierarchy(g), ranks); }
+
+Slab Multigrid::rank_slab(const Grid& g, const Decomposition& dec) {
+  if (!dec.distributed()) return Slab{0, g.axis[2].n, false, false};
+  return dec.slab(g.axis[2].n, z_unit(g, dec.size()), g.axis[2].periodic);
+}
+
+Multigrid::Multigrid(const Grid& g, const ScalarBCs& bc, std::shared_ptr<const Decomposition> dec)
+    : bc_(bc), dec_(std::move(dec)) {
+  singular_ = std::none_of(bc.begin(), bc.end(), [](ScalarBC b) { return b == ScalarBC::dirichlet; });
+  const Hierarchy h = hierarchy(g);
+  const int levels = int(h.grids.size());
+  if (dec_ && dec_->distributed()) {
+    const int unit = z_unit_of(h, dec_->size());
+    if (unit < 2)
+      throw std::invalid_argument("multigrid: the z axis of " + std::to_string(g.axis[2].n) + " cells cannot be split over " +
+                                  std::to_string(dec_->size()) + " ranks (it must coarsen at least once, leaving a block "
+                                  "of 2 planes per rank)");
+    int F = 1;
+    for (int l = 0; l < levels; ++l) {
+      slabs_.push_back(dec_->slabs(h.grids[std::size_t(l)].axis[2].n, unit / F, g.axis[2].periodic));
+      if (F == unit || l + 1 == levels) {
+        gathered_ = l;
+        break;
+      }
+      F *= h.f[std::size_t(l)][2];
+    }
+  }
+  for (int l = 0; l < levels; ++l) {
+    if (l < gathered_) {
+      const Slab& sl = slabs_[std::size_t(l)][std::size_t(dec_->rank())];
+      ScalarBCs local = bc;
+      if (sl.cut_lo) local[std::size_t(face(2, 0))] = ScalarBC::interface;
+      if (sl.cut_hi) local[std::size_t(face(2, 1))] = ScalarBC::interface;
+      Level& V = levels_.emplace_back(h.grids[std::size_t(l)].slice_z(sl), local);
+      V.slab = sl;
+      V.distributed = true;
+    } else {
+      levels_.emplace_back(h.grids[std::size_t(l)], bc);
+    }
+    if (l + 1 < levels)
+      for (int a = 0; a < 3; ++a) levels_.back().f[a] = h.f[std::size_t(l)][std::size_t(a)];
   }
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) {
     Level &F = levels_[l], &C = levels_[l + 1];
@@ -427,7 +506,9 @@ Multigrid::Multigrid(const Grid& g, const ScalarBCs& bc) : bc_(bc) {
           F.c0[a][I] = F.c1[a][I] = I;
           continue;
         }
-        const int Cc = (I + 1) / 2, Cn = (I % 2 == 1) ? Cc - 1 : Cc + 1;
+        // A slab prolonged from a whole level: its coarse cells sit at the slab's offset there.
+        const int off = a == 2 && F.distributed && !C.distributed ? F.slab.offset / 2 : 0;
+        const int Cc = (I + 1) / 2 + off, Cn = (I % 2 == 1) ? Cc - 1 : Cc + 1;
         const double t = (fa.xc[I] - ca.xc[Cc]) / (ca.xc[Cn] - ca.xc[Cc]);
         F.c0[a][I] = Cc;
         F.c1[a][I] = Cn;
@@ -461,6 +542,8 @@ Multigrid& Multigrid::operator=(Multigrid&&) noexcept = default;
 int Multigrid::levels() const { return int(levels_.size()); }
 const Shape& Multigrid::level_shape(int l) const { return levels_.at(l).L.s; }
 
+void Multigrid::exchange(Level& V) const { dec_->exchange(V.x.data(), V.L.s, V.slab); }
+
 void Multigrid::vcycle(const Field& r, Field& z, int pre, int post) {
   if (!(r.shape() == levels_[0].L.s) || !(z.shape() == levels_[0].L.s))
     throw std::invalid_argument("multigrid: field shape differs from the grid");
@@ -479,13 +562,37 @@ void Multigrid::cycle(int l, int pre, int post, const real* r, real* z) {
     return;
   }
   Level& C = levels_[l + 1];
+  if (V.distributed) {  // a rank's slab: a ghost exchange after each half-sweep that neighbours read
+    for (int s = 0; s < pre; ++s) {
+      if (s > 0) exchange(V);
+      sweep_slab(V, 0, s == 0, s == 0 ? r : nullptr, nullptr);
+      exchange(V);
+      sweep_slab(V, 1, false, nullptr, nullptr);
+    }
+    exchange(V);
+    const int koff = C.distributed ? 0 : V.slab.offset / V.f[2];
+    restrict_residual(V, C, koff);
+    if (!C.distributed) dec_->gather_planes(C.b.data(), C.L.s, slabs_[std::size_t(l + 1)]);
+    cycle(l + 1, pre, post, nullptr, nullptr);
+    fill_level_ghosts(C);
+    if (C.distributed) exchange(C);
+    prolong_add(V, C);
+    fill_periodic(V);  // x and y images (a slab's z ghosts come with the exchanges below)
+    for (int s = 0; s < post; ++s) {
+      exchange(V);
+      sweep_slab(V, 1, false, nullptr, nullptr);
+      exchange(V);
+      sweep_slab(V, 0, false, nullptr, s + 1 == post ? z : nullptr);
+    }
+    return;
+  }
   if (V.L.periodic[2])
     for (int s = 0; s < pre; ++s) sweep(V, 0, s == 0, s == 0 ? r : nullptr, nullptr);
   else
     fused_sweeps(V, 0, pre, true, r, nullptr);
-  restrict_residual(V, C);
+  restrict_residual(V, C, 0);
   cycle(l + 1, pre, post, nullptr, nullptr);
-  fill_level_ghosts(C, bc_);
+  fill_level_ghosts(C);
   prolong_add(V, C);
   fill_periodic(V);
   if (V.L.periodic[2])

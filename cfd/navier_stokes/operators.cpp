@@ -176,7 +176,7 @@ void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, Vecto
     real* N = Nprev[d].data();
     real* us = ustar[d].data();
     int hi[3] = {s.nx, s.ny, s.nz};
-    if (!g.axis[std::size_t(d)].periodic) hi[d] += 1;
+    if (g.axis[std::size_t(d)].owns_upper_face()) hi[d] += 1;
     const Axis& A = g.axis[std::size_t(d)];
 #pragma omp parallel for schedule(static) if (threaded(s))
     for (int k = 1; k <= hi[2]; ++k)
@@ -208,7 +208,7 @@ void add_rotation(const Grid& g, VectorField& u, const Vec3& w) {
     const double* c2 = g.axis[std::size_t(e2)].xc.data();
     real* v = u[d].data();
     int hi[3] = {s.nx, s.ny, s.nz};
-    if (!g.axis[std::size_t(d)].periodic) hi[d] += 1;
+    if (g.axis[std::size_t(d)].owns_upper_face()) hi[d] += 1;
 #pragma omp parallel for schedule(static) if (threaded(s))
     for (int k = 1; k <= hi[2]; ++k)
       for (int j = 1; j <= hi[1]; ++j)
@@ -231,7 +231,7 @@ void project(const Grid& g, const VectorField& ustar, const Field& phi, VectorFi
   // The upper boundary faces (index n + 1) of non-periodic axes: prescribed (zero correction through a Neumann
   // ghost) or outflow (corrected through the Dirichlet ghost).
   for (int d = 0; d < 3; ++d) {
-    if (g.axis[d].periodic) continue;
+    if (!g.axis[d].owns_upper_face()) continue;
     const int b = (d + 1) % 3, c = (d + 2) % 3, n = s.n(d);
     const std::ptrdiff_t sd = s.stride(d);
     const real w = real(alpha_dt) * g.axis[d].idf[n + 1];
@@ -251,7 +251,7 @@ double kinetic_energy(const Grid& g, const VectorField& u) {
     double ed = 0;
     const Shape s = g.shape();
     int hi[3] = {s.nx, s.ny, s.nz};
-    if (!g.axis[d].periodic) ++hi[d];
+    if (g.axis[d].owns_upper_face()) ++hi[d];
 #pragma omp parallel for schedule(static) reduction(+ : ed) if (threaded(s))
     for (int k = 1; k <= hi[2]; ++k)
       for (int j = 1; j <= hi[1]; ++j)
@@ -273,7 +273,7 @@ double viscous_dissipation(const Grid& g, const VectorField& u, double nu) {
   for (int d = 0; d < 3; ++d) {
     const real* ud = u[d].data();
     int lo[3] = {1, 1, 1};
-    if (!g.axis[d].periodic) lo[d] = 2;  // the boundary faces along d are not unknowns
+    if (!g.axis[d].lower_face_unknown()) lo[d] = 2;  // the boundary faces along d are not unknowns
     double acc = 0;
 #pragma omp parallel for schedule(static) reduction(+ : acc) if (threaded(s))
     for (int k = lo[2]; k <= n[2]; ++k)

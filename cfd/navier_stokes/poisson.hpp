@@ -45,7 +45,9 @@ struct PoissonStats {
 // singular: b's volume-weighted mean is removed.
 class Poisson {
  public:
-  Poisson(const Grid& g, const ScalarBCs& bc);
+  // g, bc: the whole grid and its conditions. With a decomposition over several ranks the unknowns are this rank's
+  // slab (slab()): fields passed in have its shape, and the norms and inner products are global.
+  Poisson(const Grid& g, const ScalarBCs& bc, std::shared_ptr<const Decomposition> dec = {});
   ~Poisson();
   Poisson(Poisson&&) noexcept;
   Poisson& operator=(Poisson&&) noexcept;
@@ -59,16 +61,23 @@ class Poisson {
   void apply(Field& x, Field& Lx) const;
   double residual_norm(Field& x, const Field& b) const;  // max over cells of |b - L x|
   bool singular() const { return singular_; }
+  const Slab& slab() const { return slab_; }
+  const ScalarBCs& local_conditions() const { return bc_; }  // bc with the slab's cuts as interfaces
   const Multigrid& multigrid() const { return mg_; }
   std::size_t bytes() const;  // memory held (Krylov vectors and multigrid levels)
 
  private:
+  void ghosts(Field& x) const;  // box conditions and the slab's exchange
+  std::shared_ptr<const Decomposition> dec_;
+  Slab slab_;
+  ScalarBCs bc_;
   Stencil<real> L_;
   Multigrid mg_;
-  ScalarBCs bc_;
   bool singular_;
   Field z_, p_, q_;  // preconditioned residual, search direction, L p
   std::unique_ptr<HyprePoisson> hypre_;  // set up at the first solve with backend = hypre
+  int whole_nz_;                          // the whole grid's z axis (hypre's grid over ranks)
+  bool z_periodic_;
 };
 
 // Volume-weighted mean of a cell field.

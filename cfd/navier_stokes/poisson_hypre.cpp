@@ -51,6 +51,7 @@ struct HyprePoisson::Impl {
   HYPRE_StructVector b = nullptr, x = nullptr;
   HYPRE_StructSolver pcg = nullptr, pfmg = nullptr;
   int lo[3] = {1, 1, 1}, hi[3] = {1, 1, 1};
+  MPI_Comm comm = MPI_COMM_SELF;
   std::vector<double> values;
 
   ~Impl() {
@@ -64,10 +65,12 @@ struct HyprePoisson::Impl {
   }
 };
 
-HyprePoisson::HyprePoisson(const Stencil<real>& L) : impl_(std::make_unique<Impl>()) {
+HyprePoisson::HyprePoisson(const Stencil<real>& L, const Slab* slab, int whole_nz, bool z_periodic)
+    : impl_(std::make_unique<Impl>()) {
   for (int a = 0; a < 3; ++a) {
-    const int n = L.s.n(a);
-    if (L.periodic[a] && (n & (n - 1)) != 0)
+    const bool periodic = a == 2 && slab ? z_periodic : L.periodic[a];
+    const int n = a == 2 && slab ? whole_nz : L.s.n(a);
+    if (periodic && (n & (n - 1)) != 0)
       throw std::invalid_argument("the hypre pressure solver needs a power-of-two cell count on a periodic axis (axis " +
                                   std::to_string(a) + " has " + std::to_string(n) +
                                   " cells; hypre's structured multigrid gave a wrong solution on a 56-cell period)");
@@ -76,16 +79,21 @@ HyprePoisson::HyprePoisson(const Stencil<real>& L) : impl_(std::make_unique<Impl
   Impl& m = *impl_;
   m.s = L.s;
   const Shape& s = m.s;
-  m.hi[0] = s.nx, m.hi[1] = s.ny, m.hi[2] = s.nz;
-  HYPRE_StructGridCreate(MPI_COMM_WORLD, 3, &m.grid);
+  // A slab's box in the whole grid's indices; hypre couples the boxes of the ranks itself.
+  const int z0 = slab ? slab->offset : 0;
+  m.lo[2] = 1 + z0;
+  m.hi[0] = s.nx, m.hi[1] = s.ny, m.hi[2] = s.nz + z0;
+  m.comm = slab ? MPI_COMM_WORLD : MPI_COMM_SELF;
+  HYPRE_StructGridCreate(m.comm, 3, &m.grid);
   HYPRE_StructGridSetExtents(m.grid, m.lo, m.hi);
-  int period[3] = {L.periodic[0] ? s.nx : 0, L.periodic[1] ? s.ny : 0, L.periodic[2] ? s.nz : 0};
+  int period[3] = {L.periodic[0] ? s.nx : 0, L.periodic[1] ? s.ny : 0,
+                   slab ? (z_periodic ? whole_nz : 0) : L.periodic[2] ? s.nz : 0};
   HYPRE_StructGridSetPeriodic(m.grid, period);
   HYPRE_StructGridAssemble(m.grid);
   int offsets[7][3] = {{0, 0, 0}, {-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
   HYPRE_StructStencilCreate(3, 7, &m.stencil);
   for (int e = 0; e < 7; ++e) HYPRE_StructStencilSetElement(m.stencil, e, offsets[e]);
-  HYPRE_StructMatrixCreate(MPI_COMM_WORLD, m.grid, m.stencil, &m.A);
+  HYPRE_StructMatrixCreate(m.comm, m.grid, m.stencil, &m.A);
   HYPRE_StructMatrixInitialize(m.A);
   const std::size_t cells = s.cells();
   m.values.assign(7 * cells, 0.0);
@@ -105,8 +113,8 @@ HyprePoisson::HyprePoisson(const Stencil<real>& L) : impl_(std::make_unique<Impl
   int entries[7] = {0, 1, 2, 3, 4, 5, 6};
   HYPRE_StructMatrixSetBoxValues(m.A, m.lo, m.hi, 7, entries, m.values.data());
   HYPRE_StructMatrixAssemble(m.A);
-  HYPRE_StructVectorCreate(MPI_COMM_WORLD, m.grid, &m.b);
-  HYPRE_StructVectorCreate(MPI_COMM_WORLD, m.grid, &m.x);
+  HYPRE_StructVectorCreate(m.comm, m.grid, &m.b);
+  HYPRE_StructVectorCreate(m.comm, m.grid, &m.x);
   HYPRE_StructVectorInitialize(m.b);
   HYPRE_StructVectorInitialize(m.x);
   m.values.assign(cells, 0.0);
@@ -114,9 +122,9 @@ HyprePoisson::HyprePoisson(const Stencil<real>& L) : impl_(std::make_unique<Impl
   HYPRE_StructVectorSetBoxValues(m.x, m.lo, m.hi, m.values.data());
   HYPRE_StructVectorAssemble(m.b);
   HYPRE_StructVectorAssemble(m.x);
-  HYPRE_StructPCGCreate(MPI_COMM_WORLD, &m.pcg);
+  HYPRE_StructPCGCreate(m.comm, &m.pcg);
   HYPRE_StructPCGSetTwoNorm(m.pcg, 1);
-  HYPRE_StructSMGCreate(MPI_COMM_WORLD, &m.pfmg);
+  HYPRE_StructSMGCreate(m.comm, &m.pfmg);
   HYPRE_StructSMGSetMemoryUse(m.pfmg, 0);
   HYPRE_StructSMGSetMaxIter(m.pfmg, 1);
   HYPRE_StructSMGSetTol(m.pfmg, 0.0);
@@ -161,7 +169,7 @@ int HyprePoisson::solve(Field& x, const Field& b, double rtol, int max_iteration
 
 bool hypre_available() { return false; }
 struct HyprePoisson::Impl {};
-HyprePoisson::HyprePoisson(const Stencil<real>&) {
+HyprePoisson::HyprePoisson(const Stencil<real>&, const Slab*, int, bool) {
   throw std::invalid_argument("the hypre pressure solver is not built in (CMake did not find hypre and MPI: install "
                               "libhypre-dev and libopenmpi-dev and reconfigure)");
 }

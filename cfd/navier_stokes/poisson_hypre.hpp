@@ -1,6 +1,7 @@
 // hypre's structured multigrid as the pressure solver's alternative back end (PoissonOptions::backend): conjugate
 // gradients preconditioned by one SMG V-cycle (Schaffer 1998, SIAM J Sci Comput 20:228; hypre reference manual,
-// "Struct SMG"), on one MPI rank. SMG smooths whole planes and lines, so it converges on grids with very elongated
+// "Struct SMG"), on one MPI rank (MPI_COMM_SELF: the copies of a campaign solve their own flows) or over the ranks of
+// a decomposition (MPI_COMM_WORLD, each rank giving its z slab). SMG smooths whole planes and lines, so it converges on grids with very elongated
 // cells where the project's point smoother stalls (tests/cfd/test_ns_poisson.cpp, a thin slab with cells 23 times
 // longer than deep). A periodic axis needs a power-of-two cell count (refused otherwise). Built when CMake finds
 // hypre and MPI (FLAPSTAB_HAVE_HYPRE); otherwise hypre_available() is false and constructing one throws.
@@ -17,7 +18,9 @@ class HyprePoisson {
  public:
   // The matrix is -V L (V the cell volume: symmetric positive semi-definite), set up once; MPI is initialised on
   // first use if the program has not done it (and finalised at exit).
-  explicit HyprePoisson(const Stencil<real>& L);
+  // L: this rank's stencil. slab: its planes of a decomposed z axis of whole_nz cells (periodic or not); null on one
+  // rank.
+  explicit HyprePoisson(const Stencil<real>& L, const Slab* slab = nullptr, int whole_nz = 0, bool z_periodic = false);
   ~HyprePoisson();
   HyprePoisson(const HyprePoisson&) = delete;
   HyprePoisson& operator=(const HyprePoisson&) = delete;

@@ -17,11 +17,14 @@ constexpr double rk3_end[3] = {8.0 / 15.0, 2.0 / 3.0, 1.0};
 
 }  // namespace
 
-Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
-    : grid_(std::move(grid)), bc_(std::move(bc)), pbc_(bc_.pressure()), opt_(opt), poisson_(grid_, pbc_),
-      u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()), p_(grid_.shape()), div_(grid_.shape()),
-      phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
+Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec)
+    : dec_(dec ? std::move(dec) : std::make_shared<const Decomposition>()), slab_(Multigrid::rank_slab(grid, *dec_)),
+      grid_(grid.slice_z(slab_)), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
+      poisson_(grid, bc.pressure(), dec_), u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()),
+      p_(grid_.shape()), div_(grid_.shape()), phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
+  bc.check(grid);
   bc_.check(grid_);
+  viscous_rate_ = dec_->max(max_viscous_rate(grid_, opt_.nu));
   if (!(opt_.nu >= 0)) throw std::invalid_argument("navier_stokes solver: viscosity nu must be >= 0");
   if (!(opt_.cfl > 0) || !(opt_.diffusion > 0)) throw std::invalid_argument("navier_stokes solver: cfl and diffusion limits must be > 0");
   if (opt_.cfl > std::sqrt(3.0) || opt_.diffusion > 0.63)
@@ -38,7 +41,7 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
   }
   if (sp.active())
     for (int a = 0; a < 3; ++a) {
-      const Axis& ax = grid_.axis[std::size_t(a)];
+      const Axis& ax = grid.axis[std::size_t(a)];  // distances from the whole box's faces
       auto sigma = [&](double x) {
         double s = 0;
         for (int side = 0; side < 2; ++side) {
@@ -54,6 +57,9 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt)
       for (int i = 1; i <= ax.n; ++i) sponge_c_[std::size_t(a)][std::size_t(i)] = sigma(ax.xc[std::size_t(i)]);
       for (int i = 1; i <= ax.n + 1 && std::size_t(i) < ax.xf.size(); ++i)
         sponge_f_[std::size_t(a)][std::size_t(i)] = sigma(ax.xf[std::size_t(i)]);
+      if (a == 2 && (slab_.cut_lo || slab_.cut_hi))  // this rank's planes
+        for (auto* v : {&sponge_c_[2], &sponge_f_[2]})
+          *v = std::vector<double>(v->begin() + slab_.offset, v->begin() + slab_.offset + slab_.n + 2);
     }
   if (sp.active())
     for (int d = 0; d < 3; ++d) {
@@ -135,8 +141,10 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
           p_(i, j, k) = p0(x[0], x[1], x[2]);
         }
   fill_ghosts(p_, pbc_);
+  dec_->exchange(p_, slab_);
   t_ = t0;
   impose_normal_velocity(ustar_, bc_, t_, &grid_);
+  exchange(ustar_);
   divergence(grid_, ustar_, div_, 1.0);
   PoissonOptions popt = opt_.poisson;
   popt.rtol = std::min(popt.rtol, 1e-10);
@@ -145,7 +153,18 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   project(grid_, ustar_, phi_[0], u_, discard, 1.0);
   guess_ = false;
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
+  exchange(u_);
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
+}
+
+void Solver::exchange(VectorField& u) const {
+  for (int d = 0; d < 3; ++d) dec_->exchange(u[d], slab_);
+}
+
+void Solver::attach(StageHooks* hooks) {
+  if (hooks && dec_->distributed())
+    throw std::invalid_argument("navier_stokes solver: immersed bodies do not run over several MPI ranks yet");
+  hooks_ = hooks;
 }
 
 namespace {
@@ -164,11 +183,11 @@ double max_aspect_ratio(const Grid& g) {
 }
 }  // namespace
 
-double Solver::stable_dt() const { return time_step(max_rate(grid_, u_)); }
+double Solver::stable_dt() const { return time_step(dec_->max(max_rate(grid_, u_))); }
 
 // conv: max over cells of sum_a |u_a| / dx_a.
 double Solver::time_step(double conv) const {
-  const double visc = max_viscous_rate(grid_, opt_.nu);
+  const double visc = viscous_rate_;
   if (opt_.dt > 0) {
     // A fixed step beyond RK3's stability region blows up within a few steps: say so now instead.
     if (opt_.dt * visc > 0.63 || opt_.dt * conv > std::sqrt(3.0))
@@ -198,6 +217,7 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   if (from != to) add_rotation(grid_, ustar_, from - to);
   relax(ustar_, adt, t_stage);
   impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
+  dec_->exchange(ustar_[2], slab_);  // the divergence of a slab's top cells reads the face above (the next rank's)
   if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
   divergence(grid_, ustar_, div_, 1.0 / adt);
   // Besides the relative tolerance, stop at a divergence of 1e-12 of the velocity-gradient scale: no round-off chase.
@@ -230,18 +250,20 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   project(grid_, ustar_, phi, u_, p_, adt);
   fill_ghosts(p_, pbc_);
   fill_velocity_ghosts(u_, bc_, t_stage, &grid_);
+  dec_->exchange(p_, slab_);
+  exchange(u_);
   if (hooks_) hooks_->after_projection(u_, p_, t_stage);
 }
 
 double Solver::step() {
-  const double conv = max_rate(grid_, u_);
+  const double conv = dec_->max(max_rate(grid_, u_));
   const double dt = time_step(conv);
-  rate_ = std::max(conv, max_viscous_rate(grid_, opt_.nu));
+  rate_ = std::max(conv, viscous_rate_);
   stats_.clear();
   for (stage_ = 0; stage_ < 3; ++stage_) stage(dt, rk3[stage_], t_ + rk3_end[stage_] * dt);
   guess_ = true;
   t_ += dt;
-  if (!std::isfinite(p_(1, 1, 1)) || !std::isfinite(u_[0](1, 1, 1)))
+  if (dec_->max(std::isfinite(p_(1, 1, 1)) && std::isfinite(u_[0](1, 1, 1)) ? 0.0 : 1.0) > 0)
     throw std::runtime_error("navier_stokes solver: the solution is not finite at t = " + std::to_string(t_) +
                              " (time step too large? CFL was " + std::to_string(cfl(dt)) + ")");
   return dt;
@@ -261,6 +283,8 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);  // the first RK3 stage does not read it (zeta_1 = 0)
   fill_ghosts(p_, pbc_);
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
+  dec_->exchange(p_, slab_);
+  exchange(u_);
   if (hooks_) hooks_->after_projection(u_, p_, t_);
 }
 

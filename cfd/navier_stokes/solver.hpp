@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <vector>
 #include "cfd/navier_stokes/boundary.hpp"
 #include "cfd/navier_stokes/operators.hpp"
@@ -71,7 +72,11 @@ class StageHooks {
 
 class Solver {
  public:
-  Solver(Grid grid, Boundaries bc, SolverOptions opt);
+  // grid, bc: the whole box. With a decomposition over several MPI ranks (decomposition.hpp) this rank solves its z
+  // slab of it: grid(), velocity(), pressure() and flags() are the slab's (with ghost planes from the neighbours),
+  // the diagnostics below are global, and every rank must call the same methods in the same order. The immersed
+  // boundary does not run over ranks yet (attach() refuses hooks there).
+  Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec = {});
 
   // Samples u0 (and p0) at the faces (cell centres) at time t0, imposes the boundary conditions and projects
   // u onto the discretely divergence-free fields.
@@ -83,10 +88,10 @@ class Solver {
 
   double time() const { return t_; }
   double stable_dt() const;  // the step the next step() takes: adaptive, or the fixed one (checked for stability)
-  double kinetic_energy() const { return ns::kinetic_energy(grid_, u_); }
-  double max_divergence() const { return ns::max_divergence(grid_, u_); }
-  double cfl(double dt) const { return dt * max_rate(grid_, u_); }
-  double diffusion_number(double dt) const { return dt * max_viscous_rate(grid_, opt_.nu); }
+  double kinetic_energy() const { return dec_->sum(ns::kinetic_energy(grid_, u_)); }
+  double max_divergence() const { return dec_->max(ns::max_divergence(grid_, u_)); }
+  double cfl(double dt) const { return dt * dec_->max(max_rate(grid_, u_)); }
+  double diffusion_number(double dt) const { return dt * viscous_rate_; }
   // Poisson statistics of the last step's projections (one per stage).
   const std::vector<PoissonStats>& poisson_stats() const { return stats_; }
   // Pressure solves since construction that stopped at max_cycles above their tolerance (the step goes on with the
@@ -97,12 +102,14 @@ class Solver {
   std::size_t bytes() const;  // memory held by the solver
 
   const Grid& grid() const { return grid_; }
+  const Slab& slab() const { return slab_; }  // this rank's planes of the whole grid's z axis
+  const Decomposition& decomposition() const { return *dec_; }
   const Boundaries& boundaries() const { return bc_; }
   const SolverOptions& options() const { return opt_; }
   const VectorField& velocity() const { return u_; }
   const Field& pressure() const { return p_; }
   std::vector<CellFlag>& flags() { return flags_; }
-  void attach(StageHooks* hooks) { hooks_ = hooks; }
+  void attach(StageHooks* hooks);
 
   // Exact checkpoint/restart: a step depends on t, u, p and the previous step's pressure increments (the
   // Poisson initial guesses); restoring them reproduces the run bit for bit. restore() refills the box
@@ -122,6 +129,10 @@ class Solver {
   template <class Fn>
   void sweep_sponge(int d, const Vec3& rate, Fn&& fn) const;
 
+  void exchange(VectorField& u) const;  // the slab's ghost planes of every component
+
+  std::shared_ptr<const Decomposition> dec_;
+  Slab slab_;
   Grid grid_;
   Boundaries bc_;
   ScalarBCs pbc_;
@@ -139,6 +150,7 @@ class Solver {
   std::vector<PoissonStats> stats_;
   double t_ = 0;
   double rate_ = 0;  // velocity-gradient scale of the current step (1/s), for the Poisson round-off floor
+  double viscous_rate_ = 0;  // max over the whole grid of nu sum_a 1 / dx_a^2
   int stage_ = 0;
   bool guess_ = false;  // phi_ holds the previous step's increments
   long unconverged_ = 0, solves_ = 0;

@@ -32,9 +32,11 @@ struct Stencil {
         hi[I] = ax.idc[I] * ax.idf[I + 1];
         d[I] = -(lo[I] + hi[I]);
       }
-      if (!periodic[a]) {
+      if (!periodic[a] && bc[face(a, 0)] != ScalarBC::interface) {
         d[1] += bc[face(a, 0)] == ScalarBC::neumann ? lo[1] : -lo[1];
         lo[1] = 0;
+      }
+      if (!periodic[a] && bc[face(a, 1)] != ScalarBC::interface) {
         d[n] += bc[face(a, 1)] == ScalarBC::neumann ? hi[n] : -hi[n];
         hi[n] = 0;
       }
@@ -88,9 +90,9 @@ void fill_scalar_ghosts(const Shape& s, T* x, const ScalarBCs& bc, const int* xs
         if (lo == ScalarBC::periodic) {
           l[g0] = l[in];
           l[g1] = l[i1];
-        } else {
-          l[g0] = lo == ScalarBC::neumann ? l[i1] : -l[i1];
-          l[g1] = hi == ScalarBC::neumann ? l[in] : -l[in];
+        } else {  // an interface's ghosts come from the neighbouring rank
+          if (lo != ScalarBC::interface) l[g0] = lo == ScalarBC::neumann ? l[i1] : -l[i1];
+          if (hi != ScalarBC::interface) l[g1] = hi == ScalarBC::neumann ? l[in] : -l[in];
         }
       }
   }

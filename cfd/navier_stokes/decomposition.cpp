@@ -1,0 +1,143 @@
+// Slabs along z over MPI ranks (see decomposition.hpp).
+#include "cfd/navier_stokes/decomposition.hpp"
+#include <stdexcept>
+#include <string>
+#ifdef FLAPSTAB_HAVE_MPI
+#include <mpi.h>
+#endif
+
+namespace flapstab::ns {
+
+#ifdef FLAPSTAB_HAVE_MPI
+struct Decomposition::Comm {
+  MPI_Comm comm = MPI_COMM_WORLD;
+};
+#else
+struct Decomposition::Comm {};
+#endif
+
+Decomposition::Decomposition() = default;
+Decomposition::~Decomposition() = default;
+
+bool Decomposition::mpi_available() {
+#ifdef FLAPSTAB_HAVE_MPI
+  return true;
+#else
+  return false;
+#endif
+}
+
+std::shared_ptr<const Decomposition> Decomposition::world() {
+#ifdef FLAPSTAB_HAVE_MPI
+  int init = 0;
+  MPI_Initialized(&init);
+  if (!init) throw std::logic_error("navier_stokes decomposition: MPI is not initialised (call MPI_Init first)");
+  auto d = std::make_shared<Decomposition>();
+  d->comm_ = std::make_unique<Comm>();
+  MPI_Comm_rank(MPI_COMM_WORLD, &d->rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &d->size_);
+  return d;
+#else
+  throw std::runtime_error("navier_stokes decomposition: this flapstab was built without MPI (install libopenmpi-dev "
+                           "and openmpi-bin, then configure again)");
+#endif
+}
+
+std::vector<Slab> Decomposition::slabs(int cells, int unit, bool periodic) const {
+  if (unit < 1 || cells % unit != 0)
+    throw std::invalid_argument("navier_stokes decomposition: " + std::to_string(cells) + " planes are not whole units of " +
+                                std::to_string(unit));
+  const int units = cells / unit;
+  if (units < size_)
+    throw std::invalid_argument("navier_stokes decomposition: the z axis has " + std::to_string(cells) + " cells, " +
+                                std::to_string(units) + " blocks of " + std::to_string(unit) +
+                                " planes (the multigrid's alignment), fewer than the " + std::to_string(size_) +
+                                " ranks: use fewer ranks or more z cells");
+  std::vector<Slab> out(static_cast<std::size_t>(size_));
+  int at = 0;
+  for (int r = 0; r < size_; ++r) {
+    const int u = units / size_ + (r < units % size_ ? 1 : 0);
+    Slab& s = out[std::size_t(r)];
+    s.offset = at;
+    s.n = u * unit;
+    at += s.n;
+    s.cut_lo = size_ > 1 && (periodic || r > 0);
+    s.cut_hi = size_ > 1 && (periodic || r + 1 < size_);
+  }
+  return out;
+}
+
+#ifdef FLAPSTAB_HAVE_MPI
+namespace {
+template <class T>
+MPI_Datatype type();
+template <>
+MPI_Datatype type<double>() { return MPI_DOUBLE; }
+template <>
+MPI_Datatype type<float>() { return MPI_FLOAT; }
+
+template <class T>
+void exchange_planes(MPI_Comm comm, int rank, int size, T* x, const Shape& s, const Slab& sl,
+                     Decomposition::Traffic& traffic) {
+  if (size < 2 || !(sl.cut_lo || sl.cut_hi)) return;
+  ++traffic.exchanges;
+  traffic.bytes += double(s.sz) * sizeof(T) * ((sl.cut_lo ? 1 : 0) + (sl.cut_hi ? 1 : 0));
+  const int lower = sl.cut_lo ? (rank + size - 1) % size : MPI_PROC_NULL;
+  const int upper = sl.cut_hi ? (rank + 1) % size : MPI_PROC_NULL;
+  const int count = int(s.sz);
+  // Upwards: my plane nz to the upper neighbour's plane 0; downwards: my plane 1 to the lower one's plane nz + 1.
+  MPI_Sendrecv(x + s(0, 0, s.nz), count, type<T>(), upper, 11, x, count, type<T>(), lower, 11, comm, MPI_STATUS_IGNORE);
+  MPI_Sendrecv(x + s(0, 0, 1), count, type<T>(), lower, 12, x + s(0, 0, s.nz + 1), count, type<T>(), upper, 12, comm,
+               MPI_STATUS_IGNORE);
+}
+}  // namespace
+
+void Decomposition::exchange(double* x, const Shape& s, const Slab& sl) const {
+  if (comm_) exchange_planes(comm_->comm, rank_, size_, x, s, sl, traffic_);
+}
+void Decomposition::exchange(float* x, const Shape& s, const Slab& sl) const {
+  if (comm_) exchange_planes(comm_->comm, rank_, size_, x, s, sl, traffic_);
+}
+
+void Decomposition::gather_planes(float* x, const Shape& whole, const std::vector<Slab>& slabs) const {
+  if (!comm_ || size_ < 2) return;
+  std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
+  for (int r = 0; r < size_; ++r) {
+    counts[std::size_t(r)] = int(whole.sz) * slabs[std::size_t(r)].n;
+    displs[std::size_t(r)] = int(whole(0, 0, slabs[std::size_t(r)].offset + 1));
+  }
+  ++traffic_.gathers;
+  traffic_.bytes += double(counts[std::size_t(rank_)]) * sizeof(float) * (size_ - 1);
+  MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, x, counts.data(), displs.data(), MPI_FLOAT, comm_->comm);
+}
+
+double Decomposition::sum(double v) const {
+  if (comm_ && size_ > 1) {
+    ++traffic_.reductions;
+    MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, comm_->comm);
+  }
+  return v;
+}
+void Decomposition::sum(double* v, int n) const {
+  if (comm_ && size_ > 1) {
+    ++traffic_.reductions;
+    MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, comm_->comm);
+  }
+}
+double Decomposition::max(double v) const {
+  if (comm_ && size_ > 1) {
+    ++traffic_.reductions;
+    MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, comm_->comm);
+  }
+  return v;
+}
+#else
+void Decomposition::exchange(double*, const Shape&, const Slab&) const {}
+void Decomposition::exchange(float*, const Shape&, const Slab&) const {}
+void Decomposition::gather_planes(float*, const Shape&, const std::vector<Slab>&) const {}
+double Decomposition::sum(double v) const { return v; }
+void Decomposition::sum(double*, int) const {}
+double Decomposition::max(double v) const { return v; }
+#endif
+
+}  // namespace flapstab::ns

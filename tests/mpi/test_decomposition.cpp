@@ -1,0 +1,279 @@
+// The Navier-Stokes solver decomposed into z slabs over MPI ranks, against the same solver on one rank. Run under
+// mpiexec (tests/CMakeLists.txt: 2 ranks, and 3 for an uneven split). Every rank also runs the single-rank solver
+// on the whole grid and compares its slab, ghost planes included, with the decomposed result:
+// - one multigrid V-cycle: bit for bit (every cell sees the single-rank arithmetic; the coarse levels are gathered);
+// - a pressure solve: to round-off (the Krylov inner products are summed in another order);
+// - time steps of a three-dimensional Taylor-Green vortex in a periodic box (the z axis a ring of ranks), and of a
+//   flow through a walled box with stretched axes, an inflow and an outflow face, a sponge layer and a turning
+//   frame (the slabs' end ranks at walls): to round-off of the velocity scale.
+// Nothing here is timed; bench/bench_navier_stokes.cpp measures the speed-up.
+#include <gtest/gtest.h>
+#include <mpi.h>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include "cfd/navier_stokes/poisson.hpp"
+#include "cfd/navier_stokes/poisson_hypre.hpp"
+#include "cfd/navier_stokes/solver.hpp"
+
+namespace {
+
+using namespace flapstab::ns;
+using flapstab::Vec3;
+
+std::shared_ptr<const Decomposition> world() {
+  static const auto d = Decomposition::world();
+  return d;
+}
+
+// max over the slab's padded points of |local - whole at the same global point|, and the largest |whole| there.
+// up_to_a_constant: the spread (largest minus smallest) of the difference over all ranks' slabs instead, for a
+// pressure fixed only up to a constant (all faces periodic or walls), whose constant round-off moves.
+struct Difference {
+  double max = 0, scale = 0;
+};
+Difference compare(const Field& local, const Field& whole, const Slab& sl, bool up_to_a_constant = false) {
+  Difference d;
+  double lo = 1e300, hi = -1e300;
+  const Shape& s = local.shape();
+  for (int k = 0; k <= s.nz + 1; ++k)
+    for (int j = 0; j <= s.ny + 1; ++j)
+      for (int i = 0; i <= s.nx + 1; ++i) {
+        const double e = double(local(i, j, k)) - whole(i, j, k + sl.offset);
+        lo = std::min(lo, e);
+        hi = std::max(hi, e);
+        d.max = std::max(d.max, std::abs(e));
+        d.scale = std::max(d.scale, std::abs(double(whole(i, j, k + sl.offset))));
+      }
+  if (up_to_a_constant) d.max = world()->max(hi) + world()->max(-lo);
+  return d;
+}
+
+// A smooth right-hand side with all scales (the sum of a few modes and a local bump), zero volume-weighted mean
+// left to the solver.
+double rhs(const std::array<double, 3>& x) {
+  return std::sin(3 * x[0]) * std::cos(2 * x[1]) * std::sin(5 * x[2] + 0.3) + std::exp(-20 * (x[0] * x[0] + x[2] * x[2]));
+}
+
+Grid walled_grid(int nx, int ny, int nz) {
+  StretchedAxis zs{.lo = -2, .hi = 2.5, .box_lo = -0.5, .box_hi = 0.5, .h = 4.5 / (1.2 * nz), .max_ratio = 1.08,
+                   .multiple_of = 8};
+  Axis z = Axis::stretched(zs, false);
+  StretchedAxis xs{.lo = -1.5, .hi = 1.5, .box_lo = -0.4, .box_hi = 0.6, .h = 3.0 / (1.5 * nx), .max_ratio = 1.06,
+                   .multiple_of = 8};
+  return Grid(Axis::stretched(xs, false), Axis::uniform(-1, 1, ny, false), std::move(z));
+}
+
+TEST(Decomposition, SlabsAreWholeBlocksAndCoverTheAxis) {
+  const auto& D = *world();
+  const Grid g = walled_grid(24, 16, 40);
+  const int unit = Multigrid::z_unit(g, D.size());
+  const auto slabs = D.slabs(g.axis[2].n, unit, false);
+  int at = 0;
+  for (const Slab& s : slabs) {
+    EXPECT_EQ(s.offset, at);
+    EXPECT_EQ(s.n % unit, 0);
+    at += s.n;
+  }
+  EXPECT_EQ(at, g.axis[2].n);
+  EXPECT_FALSE(slabs.front().cut_lo);
+  EXPECT_FALSE(slabs.back().cut_hi);
+  if (D.rank() == 0)
+    std::printf("[ rank 0 ] z axis of %d cells in blocks of %d planes: %d ranks hold", g.axis[2].n, unit, D.size());
+  if (D.rank() == 0)
+    for (const Slab& s : slabs) std::printf(" %d", s.n);
+  if (D.rank() == 0) std::printf(" planes\n");
+  EXPECT_THROW(D.slabs(g.axis[2].n, g.axis[2].n, false), std::invalid_argument);  // one block for several ranks
+}
+
+TEST(Decomposition, VCycleIsBitForBitTheSingleRankOne) {
+  for (bool periodic : {false, true}) {
+    const Grid g = periodic ? Grid(Axis::uniform(-1, 1, 16, true), Axis::uniform(-1, 1, 24, true),
+                                   Axis::uniform(-1, 1.5, 48, true))
+                            : walled_grid(24, 16, 40);
+    ScalarBCs bc;
+    bc.fill(periodic ? ScalarBC::periodic : ScalarBC::neumann);
+    if (!periodic) bc[face(2, 1)] = ScalarBC::dirichlet;
+    Multigrid whole(g, bc);
+    Multigrid part(g, bc, world());
+    const Slab sl = Multigrid::rank_slab(g, *world());
+    const Grid local = g.slice_z(sl);
+    Field rw(g.shape()), zw(g.shape()), rl(local.shape()), zl(local.shape());
+    for (int k = 1; k <= g.shape().nz; ++k)
+      for (int j = 1; j <= g.shape().ny; ++j)
+        for (int i = 1; i <= g.shape().nx; ++i) rw(i, j, k) = rhs(g.centre(i, j, k));
+    for (int k = 1; k <= sl.n; ++k)
+      for (int j = 1; j <= g.shape().ny; ++j)
+        for (int i = 1; i <= g.shape().nx; ++i) rl(i, j, k) = rw(i, j, k + sl.offset);
+    whole.vcycle(rw, zw, 2, 2);
+    part.vcycle(rl, zl, 2, 2);
+    double diff = 0;
+    for (int k = 1; k <= sl.n; ++k)
+      for (int j = 1; j <= g.shape().ny; ++j)
+        for (int i = 1; i <= g.shape().nx; ++i) diff = std::max(diff, std::abs(zl(i, j, k) - zw(i, j, k + sl.offset)));
+    EXPECT_EQ(diff, 0.0) << (periodic ? "periodic" : "walled") << " box; gathered level " << part.gathered_level()
+                         << " of " << part.levels();
+    EXPECT_GT(part.gathered_level(), 0);
+  }
+}
+
+TEST(Decomposition, PressureSolveMatchesTheSingleRankOneToRoundOff) {
+  const Grid g = walled_grid(24, 16, 40);
+  ScalarBCs bc;
+  bc.fill(ScalarBC::neumann);  // singular: the volume-weighted mean is removed over all ranks
+  Poisson whole(g, bc);
+  Poisson part(g, bc, world());
+  const Slab& sl = part.slab();
+  Field bw(g.shape()), xw(g.shape()), bl(g.slice_z(sl).shape()), xl(bl.shape());
+  for (int k = 1; k <= g.shape().nz; ++k)
+    for (int j = 1; j <= g.shape().ny; ++j)
+      for (int i = 1; i <= g.shape().nx; ++i) bw(i, j, k) = rhs(g.centre(i, j, k));
+  for (int k = 1; k <= sl.n; ++k)
+    for (int j = 1; j <= g.shape().ny; ++j)
+      for (int i = 1; i <= g.shape().nx; ++i) bl(i, j, k) = bw(i, j, k + sl.offset);
+  PoissonOptions opt{.rtol = 1e-10, .max_cycles = 60};
+  const PoissonStats sw = whole.solve(xw, bw, opt);
+  const PoissonStats sp = part.solve(xl, bl, opt);
+  EXPECT_TRUE(sw.converged && sp.converged);
+  EXPECT_EQ(sw.cycles, sp.cycles);
+  // The residuals are differences of O(1) terms: equal to the round-off of the right-hand side's scale.
+  EXPECT_NEAR(sp.residual, sw.residual, 1e-13 * sw.initial_residual);
+  const Difference d = compare(xl, xw, sl, true);
+  EXPECT_LE(d.max, 1e-12 * d.scale) << "max |x| " << d.scale;
+}
+
+// hypre's structured PCG + SMG over the ranks (each rank gives its slab as a box of the whole grid) against the
+// single-rank multigrid solve converged to 1e-13: the same discrete solution, to the solver's tolerance. SMG's
+// smoothing depends on the boxes, so the iterates differ from hypre's on one rank; each solution is within
+// |L^-1| |r| of the exact discrete one, |r| <= rtol |b| (max norm) and |L^-1| of order (box size / pi)^2 ~ 1 here.
+TEST(Decomposition, HypreOverRanksGivesTheSingleRankSolutionToItsTolerance) {
+  if (!hypre_available()) GTEST_SKIP() << "hypre not built in";
+  const Grid g = walled_grid(24, 16, 40);
+  ScalarBCs bc;
+  bc.fill(ScalarBC::neumann);
+  bc[face(2, 1)] = ScalarBC::dirichlet;
+  Poisson whole(g, bc);
+  Poisson part(g, bc, world());
+  const Slab& sl = part.slab();
+  Field bw(g.shape()), xw(g.shape()), bl(g.slice_z(sl).shape()), xl(bl.shape());
+  for (int k = 1; k <= g.shape().nz; ++k)
+    for (int j = 1; j <= g.shape().ny; ++j)
+      for (int i = 1; i <= g.shape().nx; ++i) bw(i, j, k) = rhs(g.centre(i, j, k));
+  for (int k = 1; k <= sl.n; ++k)
+    for (int j = 1; j <= g.shape().ny; ++j)
+      for (int i = 1; i <= g.shape().nx; ++i) bl(i, j, k) = bw(i, j, k + sl.offset);
+  const PoissonStats sw = whole.solve(xw, bw, PoissonOptions{.rtol = 1e-13, .max_cycles = 80});
+  const PoissonStats sp =
+      part.solve(xl, bl, PoissonOptions{.backend = PoissonBackend::hypre, .rtol = 1e-10, .max_cycles = 200});
+  EXPECT_TRUE(sw.converged);
+  EXPECT_TRUE(sp.converged) << sp.residual << " after " << sp.cycles << " iterations, target " << sp.target;
+  const Difference d = compare(xl, xw, sl);
+  EXPECT_LE(d.max, 1e-9 * d.scale) << "max |x| " << d.scale;
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] hypre over %d ranks: %d iterations, max difference %.3g of %.3g from the multigrid\n",
+                world()->size(), sp.cycles, d.max, d.scale);
+}
+
+// Steps of the single-rank and the decomposed solver; the velocity and pressure differences over the slab.
+struct Comparison {
+  double du = 0, dp = 0, u = 0, p = 0;
+  double energy_whole = 0, energy_part = 0;
+};
+Comparison run_both(const Grid& g, const Boundaries& bc, const SolverOptions& opt,
+                    const std::function<Vec3(double, double, double)>& u0, int steps, bool singular) {
+  Solver whole(g, bc, opt);
+  Solver part(g, bc, opt, world());
+  whole.initialise(u0);
+  part.initialise(u0);
+  for (int n = 0; n < steps; ++n) {
+    const double dw = whole.step(), dp = part.step();
+    EXPECT_NEAR(dw, dp, 1e-12 * dw) << "step " << n;  // the adaptive step from velocities equal to round-off
+  }
+  Comparison c;
+  for (int d = 0; d < 3; ++d) {
+    const Difference e = compare(part.velocity()[d], whole.velocity()[d], part.slab());
+    c.du = std::max(c.du, e.max);
+    c.u = std::max(c.u, e.scale);
+  }
+  const Difference e = compare(part.pressure(), whole.pressure(), part.slab(), singular);
+  c.dp = e.max;
+  c.p = e.scale;
+  c.energy_whole = whole.kinetic_energy();
+  c.energy_part = part.kinetic_energy();
+  return c;
+}
+
+TEST(Decomposition, TaylorGreenVortexInAPeriodicBox) {
+  const double L = 2 * M_PI;
+  const Grid g(Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 32, true));
+  SolverOptions opt;
+  opt.nu = 0.01;
+  opt.cfl = 0.8;
+  opt.poisson.rtol = 1e-8;
+  const Comparison c = run_both(g, Boundaries::all(BC::periodic), opt,
+                                [](double x, double y, double z) {
+                                  return Vec3(std::sin(x) * std::cos(y) * std::cos(z),
+                                              -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
+                                },
+                                12, true);
+  EXPECT_LE(c.du, 1e-11 * c.u) << "max |u| " << c.u;
+  EXPECT_LE(c.dp, 1e-10 * c.p) << "max |p| " << c.p;
+  EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole);
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] Taylor-Green, 12 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n", c.du,
+                c.u, c.dp, c.p);
+}
+
+TEST(Decomposition, FlowThroughAWalledBoxWithASpongeInATurningFrame) {
+  const Grid g = walled_grid(24, 16, 40);
+  Boundaries bc = Boundaries::all(BC::velocity);
+  const Vec3 Omega(0.3, -0.2, 0.5);
+  for (auto& f : bc.face)  // the far field seen from the turning frame, a stream along +z
+    f.field = [Omega](double, const Vec3& x) { return Vec3(Vec3(0.1, 0.0, 1.0) - Omega.cross(x)); };
+  bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
+  SolverOptions opt;
+  opt.nu = 0.02;
+  opt.cfl = 0.8;
+  opt.frame_rate = Omega;
+  opt.poisson.rtol = 1e-8;
+  opt.sponge.width = {0, 0, 0, 0, 0.6, 0.8};
+  opt.sponge.rate = 4;
+  opt.sponge.velocity = Vec3(0.1, 0.0, 1.0);
+  const Comparison c = run_both(g, bc, opt,
+                                [](double x, double y, double z) {
+                                  return Vec3(0.1 + 0.5 * std::sin(2 * y) * std::exp(-z * z), 0.3 * std::cos(3 * x),
+                                              1.0 + 0.4 * std::sin(2 * x + z));
+                                },
+                                10, false);
+  EXPECT_LE(c.du, 1e-11 * c.u) << "max |u| " << c.u;
+  EXPECT_LE(c.dp, 1e-10 * c.p) << "max |p| " << c.p;
+  EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole);
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] walled box, 10 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n",
+                c.du, c.u, c.dp, c.p);
+}
+
+TEST(Decomposition, ImmersedBodiesAreRefusedOverSeveralRanks) {
+  struct None : StageHooks {
+    void after_predictor(VectorField&, double, double) override {}
+    void after_projection(VectorField&, Field&, double) override {}
+  } hooks;
+  const Grid g(Axis::uniform(0, 1, 8, true), Axis::uniform(0, 1, 8, true), Axis::uniform(0, 1, 16, true));
+  Solver s(g, Boundaries::all(BC::periodic), SolverOptions{.nu = 0.1}, world());
+  if (world()->distributed()) {
+    EXPECT_THROW(s.attach(&hooks), std::invalid_argument);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  ::testing::InitGoogleTest(&argc, argv);
+  const int failed = RUN_ALL_TESTS();  // every rank prints its own results; any rank's failure fails the run
+  int any = failed != 0;
+  MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Finalize();
+  return any;
+}
