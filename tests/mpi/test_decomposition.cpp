@@ -55,6 +55,23 @@ double rhs(const std::array<double, 3>& x) {
   return std::sin(3 * x[0]) * std::cos(2 * x[1]) * std::sin(5 * x[2] + 0.3) + std::exp(-20 * (x[0] * x[0] + x[2] * x[2]));
 }
 
+Field whole_rhs(const Grid& g) {
+  Field b(g.shape());
+  for (int k = 1; k <= g.shape().nz; ++k)
+    for (int j = 1; j <= g.shape().ny; ++j)
+      for (int i = 1; i <= g.shape().nx; ++i) b(i, j, k) = rhs(g.centre(i, j, k));
+  return b;
+}
+
+// A rank's planes of a whole field (shape: the slab's).
+Field slab_of(const Field& whole, const Shape& shape, const Slab& sl) {
+  Field f(shape);
+  for (int k = 1; k <= sl.n; ++k)
+    for (int j = 1; j <= shape.ny; ++j)
+      for (int i = 1; i <= shape.nx; ++i) f(i, j, k) = whole(i, j, k + sl.offset);
+  return f;
+}
+
 Grid walled_grid(int nx, int ny, int nz) {
   StretchedAxis zs{.lo = -2, .hi = 2.5, .box_lo = -0.5, .box_hi = 0.5, .h = 4.5 / (1.2 * nz), .max_ratio = 1.08,
                    .multiple_of = 8};
@@ -98,13 +115,7 @@ TEST(Decomposition, VCycleIsBitForBitTheSingleRankOne) {
     Multigrid part(g, bc, world());
     const Slab sl = Multigrid::rank_slab(g, *world());
     const Grid local = g.slice_z(sl);
-    Field rw(g.shape()), zw(g.shape()), rl(local.shape()), zl(local.shape());
-    for (int k = 1; k <= g.shape().nz; ++k)
-      for (int j = 1; j <= g.shape().ny; ++j)
-        for (int i = 1; i <= g.shape().nx; ++i) rw(i, j, k) = rhs(g.centre(i, j, k));
-    for (int k = 1; k <= sl.n; ++k)
-      for (int j = 1; j <= g.shape().ny; ++j)
-        for (int i = 1; i <= g.shape().nx; ++i) rl(i, j, k) = rw(i, j, k + sl.offset);
+    Field rw = whole_rhs(g), zw(g.shape()), rl = slab_of(rw, local.shape(), sl), zl(local.shape());
     whole.vcycle(rw, zw, 2, 2);
     part.vcycle(rl, zl, 2, 2);
     double diff = 0;
@@ -124,13 +135,7 @@ TEST(Decomposition, PressureSolveMatchesTheSingleRankOneToRoundOff) {
   Poisson whole(g, bc);
   Poisson part(g, bc, world());
   const Slab& sl = part.slab();
-  Field bw(g.shape()), xw(g.shape()), bl(g.slice_z(sl).shape()), xl(bl.shape());
-  for (int k = 1; k <= g.shape().nz; ++k)
-    for (int j = 1; j <= g.shape().ny; ++j)
-      for (int i = 1; i <= g.shape().nx; ++i) bw(i, j, k) = rhs(g.centre(i, j, k));
-  for (int k = 1; k <= sl.n; ++k)
-    for (int j = 1; j <= g.shape().ny; ++j)
-      for (int i = 1; i <= g.shape().nx; ++i) bl(i, j, k) = bw(i, j, k + sl.offset);
+  Field bw = whole_rhs(g), xw(g.shape()), bl = slab_of(bw, g.slice_z(sl).shape(), sl), xl(bl.shape());
   PoissonOptions opt{.rtol = 1e-10, .max_cycles = 60};
   const PoissonStats sw = whole.solve(xw, bw, opt);
   const PoissonStats sp = part.solve(xl, bl, opt);
@@ -155,13 +160,7 @@ TEST(Decomposition, HypreOverRanksGivesTheSingleRankSolutionToItsTolerance) {
   Poisson whole(g, bc);
   Poisson part(g, bc, world());
   const Slab& sl = part.slab();
-  Field bw(g.shape()), xw(g.shape()), bl(g.slice_z(sl).shape()), xl(bl.shape());
-  for (int k = 1; k <= g.shape().nz; ++k)
-    for (int j = 1; j <= g.shape().ny; ++j)
-      for (int i = 1; i <= g.shape().nx; ++i) bw(i, j, k) = rhs(g.centre(i, j, k));
-  for (int k = 1; k <= sl.n; ++k)
-    for (int j = 1; j <= g.shape().ny; ++j)
-      for (int i = 1; i <= g.shape().nx; ++i) bl(i, j, k) = bw(i, j, k + sl.offset);
+  Field bw = whole_rhs(g), xw(g.shape()), bl = slab_of(bw, g.slice_z(sl).shape(), sl), xl(bl.shape());
   const PoissonStats sw = whole.solve(xw, bw, PoissonOptions{.rtol = 1e-13, .max_cycles = 80});
   const PoissonStats sp =
       part.solve(xl, bl, PoissonOptions{.backend = PoissonBackend::hypre, .rtol = 1e-10, .max_cycles = 200});
