@@ -437,14 +437,25 @@ Hierarchy hierarchy(const Grid& g) {
   return h;
 }
 
+// The block of planes a slab is made of: a z coarsening factor F of the hierarchy with at least `ranks` blocks. The
+// largest F whose blocks share out within 10 % (the busiest rank's planes against the mean), so that more levels
+// are distributed; the most even split if none does.
 int z_unit_of(const Hierarchy& h, int ranks) {
   const int nz = h.grids[0].axis[2].n;
-  int F = 1, unit = 1;
+  int F = 1, unit = 1, even = 1;
+  double best = 1e300;
   for (const auto& f : h.f) {
     F *= f[2];
-    if (nz / F >= ranks) unit = F;
+    if (f[2] == 1 || nz / F < ranks) continue;
+    const int units = nz / F;
+    const double imbalance = double((units + ranks - 1) / ranks) * ranks / units;
+    if (imbalance <= 1.1) unit = F;
+    if (imbalance <= best) {
+      best = imbalance;
+      even = F;
+    }
   }
-  return unit;
+  return unit > 1 ? unit : even;
 }
 
 }  // namespace

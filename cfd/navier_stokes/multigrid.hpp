@@ -34,7 +34,8 @@ class Multigrid {
   int levels() const;
   const Shape& level_shape(int l) const;
   // The planes of a rank's slab come in blocks of this many: the largest z coarsening factor of the hierarchy of
-  // g that leaves at least `ranks` blocks (1 when z never coarsens).
+  // g whose blocks share out over `ranks` within 10 %, else the one that shares them out most evenly (1 when z
+  // never coarsens or has fewer than 2 planes per rank).
   static int z_unit(const Grid& g, int ranks);
   // This rank's slab of g's z axis (the whole axis on one rank).
   static Slab rank_slab(const Grid& g, const Decomposition& dec);
