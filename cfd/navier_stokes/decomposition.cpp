@@ -111,6 +111,27 @@ void Decomposition::gather_planes(float* x, const Shape& whole, const std::vecto
   MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, x, counts.data(), displs.data(), MPI_FLOAT, comm_->comm);
 }
 
+void Decomposition::gather_field(const Field& local, const std::vector<Slab>& slabs, Field& whole) const {
+  const Shape& s = local.shape();
+  if (!comm_ || size_ < 2) {
+    if (rank_ == 0) whole = local;
+    return;
+  }
+  const int plane = int(s.sz);
+  std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
+  for (int r = 0; r < size_; ++r) {  // planes 1 .. n, with plane 0 on the first rank and n + 1 on the last
+    const Slab& sl = slabs[std::size_t(r)];
+    const int first = r == 0 ? 0 : 1, last = r + 1 == size_ ? sl.n + 1 : sl.n;
+    counts[std::size_t(r)] = plane * (last - first + 1);
+    displs[std::size_t(r)] = plane * (sl.offset + first);
+  }
+  const int first = rank_ == 0 ? 0 : 1;
+  ++traffic_.gathers;
+  traffic_.bytes += double(counts[std::size_t(rank_)]) * sizeof(double);
+  MPI_Gatherv(local.data() + s(0, 0, first), counts[std::size_t(rank_)], MPI_DOUBLE, rank_ == 0 ? whole.data() : nullptr,
+              counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
+}
+
 double Decomposition::sum(double v) const {
   if (comm_ && size_ > 1) {
     ++traffic_.reductions;
@@ -132,6 +153,7 @@ double Decomposition::max(double v) const {
   return v;
 }
 #else
+void Decomposition::gather_field(const Field& local, const std::vector<Slab>&, Field& whole) const { whole = local; }
 void Decomposition::exchange(double*, const Shape&, const Slab&) const {}
 void Decomposition::exchange(float*, const Shape&, const Slab&) const {}
 void Decomposition::gather_planes(float*, const Shape&, const std::vector<Slab>&) const {}

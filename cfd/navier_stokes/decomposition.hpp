@@ -46,6 +46,10 @@ class Decomposition {
   // planes offset + 1 .. offset + n of `x`, which holds all nz planes): afterwards every rank holds all of them.
   void gather_planes(float* x, const Shape& whole, const std::vector<Slab>& slabs) const;
 
+  // The slabs of a padded field gathered into the whole field on rank 0 (`whole`, the whole grid's shape, is
+  // untouched elsewhere): each rank's planes 1 .. n, and the end ranks' outer ghost planes.
+  void gather_field(const Field& local, const std::vector<Slab>& slabs, Field& whole) const;
+
   double sum(double v) const;
   void sum(double* v, int n) const;  // element-wise, in place
   double max(double v) const;

@@ -19,7 +19,7 @@ constexpr double rk3_end[3] = {8.0 / 15.0, 2.0 / 3.0, 1.0};
 
 Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec)
     : dec_(dec ? std::move(dec) : std::make_shared<const Decomposition>()), slab_(Multigrid::rank_slab(grid, *dec_)),
-      grid_(grid.slice_z(slab_)), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
+      whole_(grid), grid_(grid.slice_z(slab_)), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
       poisson_(grid, bc.pressure(), dec_), u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()),
       p_(grid_.shape()), div_(grid_.shape()), phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
   bc.check(grid);
@@ -155,6 +155,11 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
   exchange(u_);
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
+}
+
+std::vector<Slab> Solver::slabs() const {
+  if (!dec_->distributed()) return {slab_};
+  return dec_->slabs(whole_.axis[2].n, Multigrid::z_unit(whole_, dec_->size()), whole_.axis[2].periodic);
 }
 
 void Solver::exchange(VectorField& u) const {

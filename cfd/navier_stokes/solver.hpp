@@ -103,6 +103,8 @@ class Solver {
 
   const Grid& grid() const { return grid_; }
   const Slab& slab() const { return slab_; }  // this rank's planes of the whole grid's z axis
+  const Grid& whole_grid() const { return whole_; }
+  std::vector<Slab> slabs() const;            // every rank's
   const Decomposition& decomposition() const { return *dec_; }
   const Boundaries& boundaries() const { return bc_; }
   const SolverOptions& options() const { return opt_; }
@@ -133,7 +135,7 @@ class Solver {
 
   std::shared_ptr<const Decomposition> dec_;
   Slab slab_;
-  Grid grid_;
+  Grid whole_, grid_;
   Boundaries bc_;
   ScalarBCs pbc_;
   SolverOptions opt_;

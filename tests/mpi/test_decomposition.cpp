@@ -12,9 +12,14 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
+#include <string>
 #include "cfd/navier_stokes/poisson.hpp"
 #include "cfd/navier_stokes/poisson_hypre.hpp"
+#include "cfd/navier_stokes/observers.hpp"
 #include "cfd/navier_stokes/solver.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
+#include "core/errors.hpp"
 
 namespace {
 
@@ -145,6 +150,9 @@ TEST(Decomposition, PressureSolveMatchesTheSingleRankOneToRoundOff) {
   EXPECT_NEAR(sp.residual, sw.residual, 1e-13 * sw.initial_residual);
   const Difference d = compare(xl, xw, sl, true);
   EXPECT_LE(d.max, 1e-12 * d.scale) << "max |x| " << d.scale;
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] pressure solve, %d iterations: spread of the difference %.3g of %.3g\n", sp.cycles, d.max,
+                d.scale);
 }
 
 // hypre's structured PCG + SMG over the ranks (each rank gives its slab as a box of the whole grid) against the
@@ -250,6 +258,104 @@ TEST(Decomposition, FlowThroughAWalledBoxWithASpongeInATurningFrame) {
   if (world()->rank() == 0)
     std::printf("[ rank 0 ] walled box, 10 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n",
                 c.du, c.u, c.dp, c.p);
+}
+
+// The walled box of the test above without the turning frame.
+struct WalledCase {
+  Grid g = walled_grid(24, 16, 40);
+  Boundaries bc = Boundaries::all(BC::velocity);
+  SolverOptions opt;
+  static Vec3 u0(double x, double y, double z) {
+    return Vec3(0.1 + 0.5 * std::sin(2 * y) * std::exp(-z * z), 0.3 * std::cos(3 * x), 1.0 + 0.4 * std::sin(2 * x + z));
+  }
+  WalledCase() {
+    bc.face[face(2, 0)].velocity = [](double) { return Vec3(0.1, 0.0, 1.0); };
+    bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
+    opt.nu = 0.02;
+    opt.dt = 0.02;
+    opt.poisson.rtol = 1e-8;
+  }
+};
+
+std::string shared_path(const std::string& name) {  // the same on every rank (rank 0 writes)
+  return ::testing::TempDir() + "flapstab_mpi_" + std::to_string(world()->size()) + "_" + name;
+}
+std::string own_path(const std::string& name) {  // one per rank
+  return shared_path(name + "_rank" + std::to_string(world()->rank()));
+}
+
+// A checkpoint written over the ranks restarts one rank, and one written by one rank restarts the ranks: the
+// checkpoint holds the whole grid whatever wrote it. Each continuation ends where the uninterrupted run does, to
+// round-off (the written state is bit for bit the gathered one).
+TEST(Decomposition, CheckpointsRestartOnAnotherNumberOfRanks) {
+  const WalledCase c;
+  Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
+  part.initialise(WalledCase::u0);
+  whole.initialise(WalledCase::u0);
+  for (int n = 0; n < 4; ++n) {
+    part.step();
+    whole.step();
+  }
+  write_solver_checkpoint(shared_path("ranks.h5"), part, 4, c.opt.dt);
+  write_solver_checkpoint(own_path("one.h5"), whole, 4, c.opt.dt);  // a single-rank solver: each process its own
+  Solver one(c.g, c.bc, c.opt), many(c.g, c.bc, c.opt, world());
+  const SimulationState a = read_solver_checkpoint(shared_path("ranks.h5"), one);
+  const SimulationState b = read_solver_checkpoint(own_path("one.h5"), many);
+  EXPECT_EQ(a.step, 4);
+  EXPECT_EQ(b.step, 4);
+  EXPECT_EQ(a.time, part.time());
+  for (int n = 0; n < 4; ++n) {
+    part.step();
+    whole.step();
+    one.step();
+    many.step();
+  }
+  double du = 0, scale = 0;
+  for (int d = 0; d < 3; ++d) {
+    const Difference e1 = compare(one.velocity()[d], whole.velocity()[d], Slab{0, c.g.axis[2].n});
+    const Difference e2 = compare(many.velocity()[d], whole.velocity()[d], many.slab());
+    const Difference e3 = compare(part.velocity()[d], whole.velocity()[d], part.slab());
+    du = std::max({du, e1.max, e2.max, e3.max});
+    scale = std::max(scale, e1.scale);
+  }
+  EXPECT_LE(du, 1e-11 * scale) << "max |u| " << scale;
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] restarts across rank counts, 4 + 4 steps: max velocity difference %.3g of %.3g\n", du,
+                scale);
+  // A checkpoint of another grid is refused, naming the file.
+  Solver other(walled_grid(24, 16, 32), c.bc, c.opt, world());
+  EXPECT_THROW(read_solver_checkpoint(shared_path("ranks.h5"), other), flapstab::InputError);
+}
+
+// The decomposed solver's field file (gathered on rank 0) holds the single-rank solver's fields to round-off.
+TEST(Decomposition, FieldsAreTheWholeGridsFile) {
+  const WalledCase c;
+  Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
+  part.initialise(WalledCase::u0);
+  whole.initialise(WalledCase::u0);
+  for (int n = 0; n < 3; ++n) {
+    part.step();
+    whole.step();
+  }
+  const RectilinearAxes axes = rectilinear(c.g);
+  std::optional<FieldWriter> wp, ww;
+  if (world()->rank() == 0) wp.emplace(shared_path("fields_ranks"), "fields", axes);
+  ww.emplace(own_path("fields_one"), "fields", axes);
+  const std::string fp = write_solver_fields(wp ? &*wp : nullptr, part, 1.2, 3);
+  const std::string fw = write_solver_fields(&*ww, whole, 1.2, 3);
+  EXPECT_EQ(fp.empty(), world()->rank() != 0);
+  if (world()->rank() == 0)
+    for (const char* name : {"velocity", "pressure", "vorticity"}) {
+      const StoredField a = read_field(fp, name), b = read_field(fw, name);
+      ASSERT_EQ(a.values.size(), b.values.size());
+      double diff = 0, scale = 0;
+      for (std::size_t n = 0; n < a.values.size(); ++n) {
+        diff = std::max(diff, std::abs(a.values[n] - b.values[n]));
+        scale = std::max(scale, std::abs(b.values[n]));
+      }
+      EXPECT_LE(diff, 1e-10 * scale) << name;
+      std::printf("[ rank 0 ] field file %s: max difference %.3g of %.3g\n", name, diff, scale);
+    }
 }
 
 TEST(Decomposition, ImmersedBodiesAreRefusedOverSeveralRanks) {

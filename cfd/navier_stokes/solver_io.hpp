@@ -1,0 +1,34 @@
+// Checkpoints and flow-field output of a Solver on any number of ranks (decomposition.hpp): the files are those of
+// the whole grid, the same as one rank writes (flapstab cfd's checkpoint layout, docs/cfd-files.md), written by
+// rank 0 from the gathered slabs, so a run can be restarted on another number of ranks and ParaView opens one data
+// set. Every rank must make the same calls. The whole fields pass through rank 0's memory: a gather, not parallel
+// HDF5 (Debian's serial HDF5 is the one linked).
+#pragma once
+#include <map>
+#include <string>
+#include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/simulation.hpp"
+#include "cfd/navier_stokes/solver.hpp"
+
+namespace flapstab::ns {
+
+// The solver's state on the whole grid, on rank 0 (elsewhere the fields are empty): velocity, pressure, the Poisson
+// initial guesses, time, and the given step counter and last step.
+SimulationState gather_state(const Solver& s, long step, double dt_last);
+
+// Writes the whole state as a checkpoint (write_state: arrays u0 u1 u2 p phi0 phi1 phi2 bit for bit); rank 0 writes,
+// and an error there (a directory that cannot be written) is thrown on every rank.
+void write_solver_checkpoint(const std::string& path, const Solver& s, long step, double dt_last,
+                             std::map<std::string, double> values = {}, std::map<std::string, std::string> text = {});
+
+// Restores s from a checkpoint of its whole grid, whichever number of ranks (or flapstab cfd run without bodies)
+// wrote it: every rank reads the file and keeps its planes. Returns the state's time, step and last dt (the fields
+// of the returned state are empty). InputError naming the file for a missing one or another grid's.
+SimulationState read_solver_checkpoint(const std::string& path, Solver& s);
+
+// Cell-centred velocity (m/s), pressure (Pa: density times the solver's kinematic pressure), vorticity and Q of the
+// whole grid through `writer` (one HDF5 + XDMF file per output and the series; the writer exists on rank 0 only,
+// null elsewhere). Returns the .h5 path on rank 0, "" elsewhere.
+std::string write_solver_fields(FieldWriter* writer, const Solver& s, double density, long step);
+
+}  // namespace flapstab::ns
