@@ -4,6 +4,7 @@
 #include <cmath>
 #include "cfd/navier_stokes/boundary.hpp"
 #include "cfd/navier_stokes/grid.hpp"
+#include "cfd/navier_stokes/multigrid.hpp"
 
 namespace {
 
@@ -137,6 +138,81 @@ TEST(NavierStokesGrid, BoundaryConditionsMustMatchThePeriodicAxes) {
   EXPECT_EQ(p[face(0, 0)], ScalarBC::periodic);
   EXPECT_EQ(p[face(1, 0)], ScalarBC::neumann);
   EXPECT_EQ(p[face(1, 1)], ScalarBC::dirichlet);
+}
+
+}  // namespace
+
+// A rank's slab of a z axis (cfd/navier_stokes/decomposition.hpp; the MPI runs are in tests/mpi): the sliced axis
+// keeps the whole axis's metrics at its indices, ghosts included, so stencils at a cut see the interior values.
+namespace {
+
+TEST(NavierStokesDecomposition, SliceKeepsTheWholeAxisMetricsAtACut) {
+  const Axis whole = Axis::stretched(
+      StretchedAxis{.lo = -2, .hi = 3, .box_lo = -0.5, .box_hi = 0.5, .h = 0.1, .max_ratio = 1.08, .multiple_of = 8},
+      false);
+  const Slab sl{8, 16, true, true};
+  const Axis a = whole.slice(sl);
+  EXPECT_EQ(a.n, 16);
+  EXPECT_FALSE(a.periodic);
+  EXPECT_TRUE(a.lower_face_unknown());
+  EXPECT_FALSE(a.owns_upper_face());
+  for (int I = 0; I <= a.n + 1; ++I) {
+    EXPECT_EQ(a.xc[std::size_t(I)], whole.xc[std::size_t(I + 8)]) << I;
+    EXPECT_EQ(a.df[std::size_t(I)], whole.df[std::size_t(I + 8)]) << I;
+    EXPECT_EQ(a.dv[std::size_t(I)], whole.dv[std::size_t(I + 8)]) << I;  // no half cell at a cut
+  }
+  EXPECT_EQ(a.lo, whole.xf[9]);
+  EXPECT_EQ(a.hi, whole.xf[25]);
+  // Without cuts (one rank) the slice is the axis itself; a slab outside the axis is refused; a slice is not
+  // coarsened (the multigrid slices the coarsened whole axis).
+  EXPECT_EQ(whole.slice(Slab{0, whole.n, false, false}).n, whole.n);
+  EXPECT_THROW(whole.slice(Slab{whole.n - 4, 8, true, false}), std::invalid_argument);
+  EXPECT_THROW(a.coarsened(), std::invalid_argument);
+  // The first rank of a walled axis: a wall below (face 1 is a boundary face), a cut above.
+  const Axis first = whole.slice(Slab{0, 16, false, true});
+  EXPECT_FALSE(first.lower_face_unknown());
+  EXPECT_FALSE(first.owns_upper_face());
+  EXPECT_EQ(first.dv[1], whole.dv[1]);  // the wall's half cell
+}
+
+TEST(NavierStokesDecomposition, InterfacesMustBeTheCutsOfTheSlab) {
+  const Grid g(Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 32, true));
+  const Boundaries periodic_z = [] {
+    Boundaries b = Boundaries::all(BC::velocity);
+    b.face[face(2, 0)].type = b.face[face(2, 1)].type = BC::periodic;
+    return b;
+  }();
+  const Slab middle{8, 8, true, true};
+  const Grid part = g.slice_z(middle);
+  const Boundaries local = periodic_z.local(middle);
+  EXPECT_EQ(local.type(2, 0), BC::interface);
+  EXPECT_EQ(local.type(2, 1), BC::interface);
+  EXPECT_EQ(local.pressure()[face(2, 0)], ScalarBC::interface);
+  EXPECT_NO_THROW(local.check(part));
+  EXPECT_THROW(periodic_z.check(part), std::invalid_argument);  // the cut is not an interface
+  EXPECT_THROW(local.check(g), std::invalid_argument);          // an interface where the grid has no cut
+  // One rank: Decomposition's slabs cover the axis in whole blocks; the multigrid's block for 2 and 3 ranks.
+  const Decomposition one;
+  EXPECT_FALSE(one.distributed());
+  const auto slabs = one.slabs(32, 8, true);
+  ASSERT_EQ(slabs.size(), 1u);
+  EXPECT_EQ(slabs[0].n, 32);
+  EXPECT_FALSE(slabs[0].cut_lo || slabs[0].cut_hi);
+  EXPECT_THROW(one.slabs(30, 8, true), std::invalid_argument);  // not whole blocks
+  EXPECT_EQ(one.sum(2.5), 2.5);
+  EXPECT_EQ(one.max(-1.0), -1.0);
+}
+
+// The block of planes: the largest z coarsening factor whose blocks share out within 10 %. A 96-plane axis (factors
+// 2 ... 32): on 2 ranks 32 would give 3 blocks, 2 + 1 (one rank twice the other's work), so 16; on 3 ranks 32.
+TEST(NavierStokesDecomposition, SlabBlocksShareOutEvenly) {
+  const Axis a = Axis::uniform(0, 1, 96, true);
+  const Grid cube(a, a, a);
+  EXPECT_EQ(Multigrid::z_unit(cube, 2), 16);
+  EXPECT_EQ(Multigrid::z_unit(cube, 3), 32);
+  EXPECT_EQ(Multigrid::z_unit(cube, 1), 32);
+  const Grid odd(a, a, Axis::uniform(0, 1, 45, false));  // z never coarsens: no block to split
+  EXPECT_EQ(Multigrid::z_unit(odd, 2), 1);
 }
 
 }  // namespace
