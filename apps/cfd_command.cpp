@@ -2,6 +2,7 @@
 #include "apps/cfd_command.hpp"
 #include "apps/commands.hpp"
 
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <fmt/format.h>
@@ -116,9 +117,30 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
   write_file_atomic(dir + "/fpm.svg", *svg);
 }
 
+// How many processes an MPI launcher started together with this one (Open MPI; MPICH and other PMI launchers): 1
+// when none did.
+int launched_processes() {
+  for (const char* var : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
+    if (const char* v = std::getenv(var)) {
+      const int n = std::atoi(v);
+      if (n > 1) return n;
+    }
+  return 1;
+}
+
 }  // namespace
 
 int run_cfd_command(const CfdCommandOptions& o) {
+  // One flow in one process: the solver's MPI decomposition does not take immersed bodies yet, and copies started
+  // by mpiexec would all make the same run into the same directory.
+  if (const int n = launched_processes(); n > 1)
+    throw InputError("mpiexec", "-n",
+                     fmt::format("flapstab cfd runs one flow in one process, and mpiexec started {} copies of it (they "
+                                 "would all make the same run into the same directory)",
+                                 n),
+                     "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS); to share out the runs of a "
+                     "derivative table, `mpiexec -n N flapstab derivatives CASE -o DIR` (docs/user-guide.md, "
+                     "\"Campaigns\")");
   const Case c = load_case_for(o.case_path, "cfd");
   ns::CfdRunOptions opt;
   opt.directory = o.output_dir.empty() ? c.output_directory : o.output_dir;  // read on --restart; never written by a dry run

@@ -85,6 +85,25 @@ TEST(CfdCli, RestartWithoutCheckpointsIsBadInput) {
   EXPECT_FALSE(fs::exists(dir));
 }
 
+// Started by mpiexec as several copies, flapstab cfd refuses before it writes anything (each copy would make the
+// same run into the same directory); the launcher's process count is read from its environment.
+TEST(CfdCli, SeveralCopiesUnderMpiexecAreRefused) {
+  const std::string path = write_temp("cfdcli_mpi.toml", with_cfd("cells_per_chord = 4"));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_mpi_dir";
+  fs::remove_all(dir);
+  ::setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
+  const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string());
+  ::unsetenv("OMPI_COMM_WORLD_SIZE");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("2 copies"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("flapstab derivatives"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir));
+  ::setenv("OMPI_COMM_WORLD_SIZE", "1", 1);  // one process started by mpiexec is a plain run
+  const CfdRunOutput one = flapstab_cfd(path + " -o " + dir.string() + " --dry-run");
+  ::unsetenv("OMPI_COMM_WORLD_SIZE");
+  EXPECT_EQ(one.status, 0) << one.err;
+}
+
 const char* tiny =
     "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
     "below_R = 0.5\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\nthreads = 1\n";
