@@ -1,5 +1,6 @@
 // Slabs along z over MPI ranks (see decomposition.hpp).
 #include "cfd/navier_stokes/decomposition.hpp"
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #ifdef FLAPSTAB_HAVE_MPI
@@ -132,6 +133,27 @@ void Decomposition::gather_field(const Field& local, const std::vector<Slab>& sl
               counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
 }
 
+void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& window) const {
+  const Shape& s = local.shape();
+  const int lo = sl.cut_lo ? depth : 0;
+  std::copy_n(local.data(), s.size(), window.data() + window.shape()(0, 0, lo));
+  if (!comm_ || size_ < 2 || !(sl.cut_lo || sl.cut_hi)) return;
+  const int lower = sl.cut_lo ? (rank_ + size_ - 1) % size_ : MPI_PROC_NULL;
+  const int upper = sl.cut_hi ? (rank_ + 1) % size_ : MPI_PROC_NULL;
+  const int count = int(s.sz) * (depth + 1);
+  double* w = window.data();
+  const Shape& ws = window.shape();
+  // Upwards: my planes n - depth .. n to the upper neighbour's window planes 0 .. depth; downwards: my planes
+  // 1 .. depth + 1 to the lower one's planes above its own.
+  ++traffic_.exchanges;
+  traffic_.bytes += double(count) * sizeof(double) * ((sl.cut_lo ? 1 : 0) + (sl.cut_hi ? 1 : 0));
+  MPI_Sendrecv(local.data() + s(0, 0, s.nz - depth), sl.cut_hi ? count : 0, MPI_DOUBLE, upper, 21, w,
+               sl.cut_lo ? count : 0, MPI_DOUBLE, lower, 21, comm_->comm, MPI_STATUS_IGNORE);
+  MPI_Sendrecv(local.data() + s(0, 0, 1), sl.cut_lo ? count : 0, MPI_DOUBLE, lower, 22,
+               w + ws(0, 0, lo + s.nz + 1), sl.cut_hi ? count : 0, MPI_DOUBLE, upper, 22, comm_->comm,
+               MPI_STATUS_IGNORE);
+}
+
 double Decomposition::sum(double v) const {
   if (comm_ && size_ > 1) {
     ++traffic_.reductions;
@@ -154,6 +176,7 @@ double Decomposition::max(double v) const {
 }
 #else
 void Decomposition::gather_field(const Field& local, const std::vector<Slab>&, Field& whole) const { whole = local; }
+void Decomposition::widen(const Field& local, const Slab&, int, Field& window) const { window = local; }
 void Decomposition::exchange(double*, const Shape&, const Slab&) const {}
 void Decomposition::exchange(float*, const Shape&, const Slab&) const {}
 void Decomposition::gather_planes(float*, const Shape&, const std::vector<Slab>&) const {}

@@ -42,6 +42,12 @@ class Decomposition {
   void exchange(float* x, const Shape& s, const Slab& sl) const;
   void exchange(Field& f, const Slab& sl) const { exchange(f.data(), f.shape(), sl); }
 
+  // A slab widened by `depth` planes on each side that is a cut (a window): `window` (nz = n + depth per cut) takes
+  // the local planes 0 .. n + 1 at its planes lo .. lo + n + 1 (lo = depth at a lower cut, else 0) and, at a cut, the
+  // neighbour's depth + 1 planes beyond (its ghost plane included). Every neighbour must hold at least depth + 1
+  // planes.
+  void widen(const Field& local, const Slab& sl, int depth, Field& window) const;
+
   // Every rank's planes of a padded array of the whole axis (global z indices; each rank has filled its slab's
   // planes offset + 1 .. offset + n of `x`, which holds all nz planes): afterwards every rank holds all of them.
   void gather_planes(float* x, const Shape& whole, const std::vector<Slab>& slabs) const;

@@ -221,6 +221,16 @@ struct ImmersedBoundary::Impl {
     double power = 0;                                   // W
   };
   std::vector<Exchange> exchange;  // per part, from the last stage's forcing
+  // Over MPI ranks the grid is the solver's window (Solver::hook_grid): the planes this rank owns, and the z range
+  // of the surface triangles it integrates (the others' are summed in by the reductions).
+  int own_first = 1, own_last = std::numeric_limits<int>::max();
+  double own_z_lo = -std::numeric_limits<double>::infinity(), own_z_hi = std::numeric_limits<double>::infinity();
+  const Decomposition* dec = nullptr;
+  bool owns(double z) const { return z >= own_z_lo && z < own_z_hi; }
+  // Element-wise sum over the ranks (nothing on one rank).
+  void sum(double* v, int n) const {
+    if (dec) dec->sum(v, n);
+  }
 
   Impl(const Grid& g, ImmersedOptions o) : grid(g), opt(o) {
     for (int a = 0; a < 3; ++a) {
@@ -270,7 +280,7 @@ struct ImmersedBoundary::Impl {
         const Axis& ax = grid.axis[std::size_t(a)];
         if (a == d) {
           // Normal component: interior faces (boundary faces belong to the box conditions); periodic: 1..n.
-          const int first = ax.periodic ? 1 : 2, last = ax.n;
+          const int first = ax.lower_face_unknown() ? 1 : 2, last = ax.n;
           index_range(ax.xf, first, last, world.lo[a], world.hi[a], lo[a], hi[a]);
         } else {
           index_range(ax.xc, 1, ax.n, world.lo[a], world.hi[a], lo[a], hi[a]);
@@ -537,9 +547,11 @@ struct ImmersedBoundary::Impl {
       for (int a = 0; a < 3; ++a) vol *= a == d ? grid.axis[std::size_t(a)].dv[std::size_t(I[a])] : grid.axis[std::size_t(a)].dc[std::size_t(I[a])];
       const auto xp = grid.point(d, i, j, k);
       const Vec3 x(xp[0], xp[1], xp[2]);
-      // A tied face's load goes half to each of its two parts.
+      // A tied face's load goes half to each of its two parts; over ranks, a face of the window's overlap is summed
+      // by the rank that owns it.
       const bool tied = entries[m].tie >= 0;
-      for (int share = 0; share < (tied ? 2 : 1); ++share) {
+      const bool own = I[2] >= own_first && I[2] <= own_last;
+      for (int share = 0; share < (tied ? 2 : 1) && own; ++share) {
         const std::size_t ip = std::size_t(share == 0 ? entries[m].part : entries[m].tie);
         const double weight = tied ? 0.5 : 1.0;
         const PartState& st = states[ip];
@@ -675,11 +687,12 @@ struct ImmersedBoundary::Impl {
     const Part& p = parts[std::size_t(ip)];
     const std::vector<PartState> states = states_now(sv.time());
     const PartState& st = states[std::size_t(ip)];
-    const VectorField& u = sv.velocity();
-    const Field& pr = sv.pressure();
+    const VectorField& u = sv.hook_velocity();
+    const Field& pr = sv.hook_pressure();
     const int sides = p.mesh.membrane ? 2 : 1;
     for (std::size_t tri = 0; tri < p.centroid.size(); ++tri) {
       const Vec3 x = st.pose.apply(p.centroid[tri]);
+      if (!owns(x.z())) continue;  // another rank's triangle
       const Vec3 n = st.pose.rotation * p.normal[tri];
       const double h = local_width(grid, x);
       const Vec3 a = st.acceleration_at(x);
@@ -843,10 +856,20 @@ std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& sta
 }
 
 void ImmersedBoundary::attach(Solver& solver) {
-  if (!(solver.grid().shape() == impl_->grid.shape()))
-    throw std::invalid_argument("immersed boundary: the solver's grid is not the one the boundary was built on");
+  if (!(solver.hook_grid().shape() == impl_->grid.shape()))
+    throw std::invalid_argument("immersed boundary: the solver's grid is not the one the boundary was built on (over "
+                                "MPI ranks: build it on solver.hook_grid())");
   impl_->solver = &solver;
   solver.attach(this);
+  if (solver.decomposition().distributed()) {
+    Impl& m = *impl_;
+    const Axis& z = m.grid.axis[2];
+    m.dec = &solver.decomposition();
+    m.own_first = solver.hook_first_plane();
+    m.own_last = solver.hook_last_plane();
+    if (solver.slab().cut_lo) m.own_z_lo = z.xf[std::size_t(m.own_first)];
+    if (solver.slab().cut_hi) m.own_z_hi = z.xf[std::size_t(m.own_last + 1)];
+  }
   impl_->mark_flags(impl_->states_now(solver.time()));
 }
 
@@ -873,6 +896,16 @@ std::vector<PartLoads> ImmersedBoundary::loads(const Solver& solver, const Vec3&
       L.viscous_moment += r.cross(fv);
       L.power -= (fp + fv).dot(V);
     });
+    double v[13] = {L.pressure_force.x(),  L.pressure_force.y(),  L.pressure_force.z(),  L.viscous_force.x(),
+                    L.viscous_force.y(),   L.viscous_force.z(),   L.pressure_moment.x(), L.pressure_moment.y(),
+                    L.pressure_moment.z(), L.viscous_moment.x(),  L.viscous_moment.y(),  L.viscous_moment.z(),
+                    L.power};
+    m.sum(v, 13);
+    L.pressure_force = Vec3(v[0], v[1], v[2]);
+    L.viscous_force = Vec3(v[3], v[4], v[5]);
+    L.pressure_moment = Vec3(v[6], v[7], v[8]);
+    L.viscous_moment = Vec3(v[9], v[10], v[11]);
+    L.power = v[12];
   }
   return out;
 }
@@ -883,9 +916,9 @@ SurfacePressure ImmersedBoundary::surface_pressure(const Solver& solver, int par
   // Far-field reference: the volume-weighted mean pressure of the cells along the box's faces.
   const Grid& g = m.grid;
   const Shape s = g.shape();
-  const Field& pr = solver.pressure();
+  const Field& pr = solver.hook_pressure();
   double sum = 0, vol = 0;
-  for (int k = 1; k <= s.nz; ++k)
+  for (int k = std::max(1, m.own_first); k <= std::min(s.nz, m.own_last); ++k)
     for (int j = 1; j <= s.ny; ++j)
       for (int i = 1; i <= s.nx; ++i) {
         if (!(i == 1 || i == s.nx || j == 1 || j == s.ny || k == 1 || k == s.nz)) {
@@ -896,6 +929,10 @@ SurfacePressure ImmersedBoundary::surface_pressure(const Solver& solver, int par
         sum += v * pr(i, j, k);
         vol += v;
       }
+  double sv[2] = {sum, vol};
+  m.sum(sv, 2);
+  sum = sv[0];
+  vol = sv[1];
   const double pfar = vol > 0 ? sum / vol : 0;
   SurfacePressure out;
   out.front.assign(p.mesh.size(), 0);
@@ -903,6 +940,8 @@ SurfacePressure ImmersedBoundary::surface_pressure(const Solver& solver, int par
   m.visit(solver, part, [&](std::size_t tri, int side, const Vec3&, const Vec3&, double, double pw, const Vec3&, const Vec3&) {
     (side == 0 ? out.front : out.back)[tri] = m.opt.density * (pw - pfar);
   });
+  m.sum(out.front.data(), int(out.front.size()));  // each triangle from the rank that owns it, zero elsewhere
+  if (!out.back.empty()) m.sum(out.back.data(), int(out.back.size()));
   return out;
 }
 
@@ -911,7 +950,12 @@ std::vector<PartLoads> ImmersedBoundary::exchange_loads(const Solver& solver, co
   const auto& ex = impl_->exchange;
   for (std::size_t ip = 0; ip < out.size(); ++ip) {
     PartLoads& L = out[ip];
-    const Impl::Exchange e = ip < ex.size() ? ex[ip] : Impl::Exchange{};
+    Impl::Exchange e = ip < ex.size() ? ex[ip] : Impl::Exchange{};
+    double v[7] = {e.force.x(), e.force.y(), e.force.z(), e.moment.x(), e.moment.y(), e.moment.z(), e.power};
+    impl_->sum(v, 7);
+    e.force = Vec3(v[0], v[1], v[2]);
+    e.moment = Vec3(v[3], v[4], v[5]);
+    e.power = v[6];
     const Vec3 moment = e.moment - moment_point.cross(e.force);
     // viscous part from the surface integral; the rest of the exchanged momentum is the pressure part
     L.pressure_force = e.force - L.viscous_force;

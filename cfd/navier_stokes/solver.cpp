@@ -19,11 +19,20 @@ constexpr double rk3_end[3] = {8.0 / 15.0, 2.0 / 3.0, 1.0};
 
 Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec)
     : dec_(dec ? std::move(dec) : std::make_shared<const Decomposition>()), slab_(Multigrid::rank_slab(grid, *dec_)),
-      whole_(grid), grid_(grid.slice_z(slab_)), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
+      whole_(grid), grid_(grid.slice_z(slab_)), window_grid_(grid_), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
       poisson_(grid, bc.pressure(), dec_), u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()),
       p_(grid_.shape()), div_(grid_.shape()), phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
   bc.check(grid);
   bc_.check(grid_);
+  windowed_ = dec_->distributed() && !grid.axis[2].periodic;
+  if (windowed_) {  // the hooks' window: hook_halo more planes at each cut
+    const int lo = slab_.cut_lo ? hook_halo : 0, hi = slab_.cut_hi ? hook_halo : 0;
+    window_grid_ = grid.slice_z(Slab{slab_.offset - lo, slab_.n + lo + hi, slab_.cut_lo, slab_.cut_hi});
+    const Shape ws = window_grid_.shape();
+    wu_ = VectorField(ws);
+    wp_ = Field(ws);
+    wflags_.assign(ws.size(), CellFlag::fluid);
+  }
   viscous_rate_ = dec_->max(max_viscous_rate(grid_, opt_.nu));
   if (!(opt_.nu >= 0)) throw std::invalid_argument("navier_stokes solver: viscosity nu must be >= 0");
   if (!(opt_.cfl > 0) || !(opt_.diffusion > 0)) throw std::invalid_argument("navier_stokes solver: cfl and diffusion limits must be > 0");
@@ -155,6 +164,10 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
   exchange(u_);
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
+  if (windowed_) {  // hook_velocity() and hook_pressure() before the first step
+    for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);
+    widen(p_, wp_);
+  }
 }
 
 std::vector<Slab> Solver::slabs() const {
@@ -167,9 +180,23 @@ void Solver::exchange(VectorField& u) const {
 }
 
 void Solver::attach(StageHooks* hooks) {
-  if (hooks && dec_->distributed())
-    throw std::invalid_argument("navier_stokes solver: immersed bodies do not run over several MPI ranks yet");
+  if (hooks && dec_->distributed()) {
+    if (whole_.axis[2].periodic)
+      throw std::invalid_argument("navier_stokes solver: immersed bodies over several MPI ranks need a z axis that is "
+                                  "not periodic");
+    for (const Slab& s : slabs())
+      if (s.n < hook_halo + 1)
+        throw std::invalid_argument(fmt::format(
+            "navier_stokes solver: immersed bodies over MPI ranks need slabs of at least {} planes (a rank holds {}): "
+            "use fewer ranks or more z cells", hook_halo + 1, s.n));
+  }
   hooks_ = hooks;
+}
+
+void Solver::keep_own(const Field& w, Field& f) const {
+  const Shape& s = f.shape();
+  const int lo = slab_.cut_lo ? hook_halo : 0;
+  std::copy_n(w.data() + w.shape()(0, 0, lo + 1), std::size_t(s.nz) * std::size_t(s.sz), f.data() + s(0, 0, 1));
 }
 
 namespace {
@@ -223,7 +250,14 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   relax(ustar_, adt, t_stage);
   impose_normal_velocity(ustar_, bc_, t_stage, &grid_);
   dec_->exchange(ustar_[2], slab_);  // the divergence of a slab's top cells reads the face above (the next rank's)
-  if (hooks_) hooks_->after_predictor(ustar_, t_stage, adt);
+  if (hooks_ && windowed()) {  // the hooks force the window; this rank keeps its planes
+    for (int d = 0; d < 3; ++d) widen(ustar_[d], wu_[d]);
+    hooks_->after_predictor(wu_, t_stage, adt);
+    for (int d = 0; d < 3; ++d) keep_own(wu_[d], ustar_[d]);
+    exchange(ustar_);
+  } else if (hooks_) {
+    hooks_->after_predictor(ustar_, t_stage, adt);
+  }
   divergence(grid_, ustar_, div_, 1.0 / adt);
   // Besides the relative tolerance, stop at a divergence of 1e-12 of the velocity-gradient scale: no round-off chase.
   PoissonOptions popt = opt_.poisson;
@@ -257,7 +291,21 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   fill_velocity_ghosts(u_, bc_, t_stage, &grid_);
   dec_->exchange(p_, slab_);
   exchange(u_);
-  if (hooks_) hooks_->after_projection(u_, p_, t_stage);
+  after_projection(t_stage);
+}
+
+void Solver::after_projection(double t) {
+  if (!windowed()) {
+    if (hooks_) hooks_->after_projection(u_, p_, t);
+    return;
+  }
+  for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);  // also what hook_velocity() gives the loads
+  widen(p_, wp_);
+  if (!hooks_) return;
+  hooks_->after_projection(wu_, wp_, t);
+  keep_own(wp_, p_);
+  fill_ghosts(p_, pbc_);
+  dec_->exchange(p_, slab_);
 }
 
 double Solver::step() {
@@ -290,7 +338,7 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
   dec_->exchange(p_, slab_);
   exchange(u_);
-  if (hooks_) hooks_->after_projection(u_, p_, t_);
+  after_projection(t_);
 }
 
 std::size_t Solver::bytes() const {

@@ -73,9 +73,11 @@ class StageHooks {
 class Solver {
  public:
   // grid, bc: the whole box. With a decomposition over several MPI ranks (decomposition.hpp) this rank solves its z
-  // slab of it: grid(), velocity(), pressure() and flags() are the slab's (with ghost planes from the neighbours),
-  // the diagnostics below are global, and every rank must call the same methods in the same order. The immersed
-  // boundary does not run over ranks yet (attach() refuses hooks there).
+  // slab of it: grid(), velocity() and pressure() are the slab's (with ghost planes from the neighbours), the
+  // diagnostics below are global, and every rank must call the same methods in the same order. Attached hooks (the
+  // immersed boundary) work on a window: the slab widened by hook_halo planes at each cut (hook_grid(),
+  // hook_velocity(), hook_pressure(), flags()), filled from the neighbours before each hook; the rank keeps its own
+  // planes of what they change. A periodic z axis over ranks takes no hooks.
   Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec = {});
 
   // Samples u0 (and p0) at the faces (cell centres) at time t0, imposes the boundary conditions and projects
@@ -103,6 +105,13 @@ class Solver {
 
   const Grid& grid() const { return grid_; }
   const Slab& slab() const { return slab_; }  // this rank's planes of the whole grid's z axis
+  // The grid and fields the hooks see (the slab's own on one rank), and the hook grid's planes this rank owns.
+  static constexpr int hook_halo = 4;
+  const Grid& hook_grid() const { return windowed() ? window_grid_ : grid_; }
+  const VectorField& hook_velocity() const { return windowed() ? wu_ : u_; }
+  const Field& hook_pressure() const { return windowed() ? wp_ : p_; }
+  int hook_first_plane() const { return windowed() && slab_.cut_lo ? hook_halo + 1 : 1; }
+  int hook_last_plane() const { return hook_first_plane() + slab_.n - 1; }
   const Grid& whole_grid() const { return whole_; }
   std::vector<Slab> slabs() const;            // every rank's
   const Decomposition& decomposition() const { return *dec_; }
@@ -110,7 +119,7 @@ class Solver {
   const SolverOptions& options() const { return opt_; }
   const VectorField& velocity() const { return u_; }
   const Field& pressure() const { return p_; }
-  std::vector<CellFlag>& flags() { return flags_; }
+  std::vector<CellFlag>& flags() { return windowed() ? wflags_ : flags_; }
   void attach(StageHooks* hooks);
 
   // Exact checkpoint/restart: a step depends on t, u, p and the previous step's pressure increments (the
@@ -125,6 +134,7 @@ class Solver {
 
  private:
   void stage(double dt, const StageCoefficients& c, double t_stage);
+  void after_projection(double t);  // the hooks' after_projection (on the window over ranks)
   double time_step(double conv) const;
   void relax(VectorField& ustar, double alpha_dt, double t) const;  // the sponge layer's implicit relaxation
   // fn(flat index, sigma, u_far) at every unknown of component d in a layer; u_far with the frame rate `rate`
@@ -132,10 +142,13 @@ class Solver {
   void sweep_sponge(int d, const Vec3& rate, Fn&& fn) const;
 
   void exchange(VectorField& u) const;  // the slab's ghost planes of every component
+  bool windowed() const { return windowed_; }  // over ranks with a z axis that is not periodic
+  void widen(const Field& f, Field& w) const { dec_->widen(f, slab_, hook_halo, w); }
+  void keep_own(const Field& w, Field& f) const;  // the slab's planes of a window field back into f
 
   std::shared_ptr<const Decomposition> dec_;
   Slab slab_;
-  Grid whole_, grid_;
+  Grid whole_, grid_, window_grid_;
   Boundaries bc_;
   ScalarBCs pbc_;
   SolverOptions opt_;
@@ -143,7 +156,10 @@ class Solver {
   VectorField u_, ustar_, rhs_u_;  // velocity, predicted velocity, previous stage's momentum right-hand side
   Field p_, div_;                   // pressure, Poisson right-hand side
   VectorField phi_;                 // pressure increment of each stage (next step's initial guess)
-  std::vector<CellFlag> flags_;
+  std::vector<CellFlag> flags_, wflags_;
+  bool windowed_ = false;
+  VectorField wu_;  // the hooks' window (hook_halo planes beyond each cut)
+  Field wp_;
   // The sponge's sigma along each axis at the cell centres (c) and at the faces (f); sigma at a point is the largest
   // of its three axes' values. Empty without a sponge.
   std::array<std::vector<double>, 3> sponge_c_, sponge_f_;
