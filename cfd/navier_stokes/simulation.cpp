@@ -58,8 +58,10 @@ VolumeMoments volume_moments(const TriangleMesh& m) {
 }
 
 SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const BodyMotion& m,
-                             const SimulationOptions::FrameRotation& rotation, const std::string& path) {
+                             const SimulationOptions& o, const std::string& path) {
+  const SimulationOptions::FrameRotation& rotation = o.frame_rotation;
   SolverOptions so;
+  if (o.pressure_rtol > 0) so.poisson.rtol = o.pressure_rtol;
   so.nu = plan.nu;
   so.cfl = s.cfl;
   so.dt = plan.dt;
@@ -112,7 +114,7 @@ struct Simulation::Impl : StageHooks {
   Impl(const Case& c, const Kinematics& kin, const BodyMotion& m, const CfdPlan& plan, const SimulationOptions& o)
       : config(c.insect, kin), motion(config, m),
         solver(plan_grid(plan), far_field(m, o.frame_rotation),
-               solver_options(c.aero.cfd, plan, m, o.frame_rotation, c.path)),
+               solver_options(c.aero.cfd, plan, m, o, c.path), o.decomposition),
         parts(insect_part_count(c.insect)), rotation(o.frame_rotation), rho(plan.rho) {
     if (rotation.rate && (!rotation.rate_rate || m.rate.squaredNorm() > 0))
       throw std::logic_error("Simulation: a frame rotation needs rate and rate_rate, and no steady body rate");
@@ -120,7 +122,7 @@ struct Simulation::Impl : StageHooks {
     else solver.initialise([this](double x, double y, double z) { return motion.far_field(Vec3(x, y, z)); });
     if (o.bodies) {
       const InsectSurfaces surfaces(config, mesh_resolution(c.aero.cfd));
-      ib.emplace(solver.grid(), ImmersedOptions{.density = plan.rho, .contact = o.contact});
+      ib.emplace(solver.hook_grid(), ImmersedOptions{.density = plan.rho, .contact = o.contact});
       const auto start = motion.parts(0.0);
       const std::size_t n = surfaces.reference().size();
       for (std::size_t i = 0; i < n; ++i) ib->add_part(surfaces.reference()[i], start[i]);

@@ -41,6 +41,14 @@ struct SimulationOptions {
   struct FrameRotation {
     std::function<Vec3(double t)> rate{}, rate_rate{};
   } frame_rotation{};
+  // The grid split over MPI ranks (decomposition.hpp): the solver and the immersed boundary run on this rank's
+  // slab, the loads are the whole insect's on every rank. Library use: the observers (files), state() and restore()
+  // stay the slab's, so a decomposed simulation is stepped and its loads read, not written to a run directory.
+  std::shared_ptr<const Decomposition> decomposition{};
+  // > 0: the pressure solves' relative tolerance instead of the solver's (1e-3). Two runs that must agree to
+  // round-off (over ranks and on one) need a tight one: at 1e-3 a residual within round-off of its target can take
+  // one more iteration on one side, and the runs then differ by far less than the tolerance but more than round-off.
+  double pressure_rtol = 0;
 };
 
 // Everything a step depends on (one checkpoint schema): restoring it continues the run bit for bit.

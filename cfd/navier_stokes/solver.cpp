@@ -306,6 +306,7 @@ void Solver::after_projection(double t) {
   keep_own(wp_, p_);
   fill_ghosts(p_, pbc_);
   dec_->exchange(p_, slab_);
+  widen(p_, wp_);  // the overlap as its owners left it (what the loads read)
 }
 
 double Solver::step() {
