@@ -306,6 +306,13 @@ struct WalledCase {
   static Vec3 u0(double x, double y, double z) {
     return Vec3(0.1 + 0.5 * std::sin(2 * y) * std::exp(-z * z), 0.3 * std::cos(3 * x), 1.0 + 0.4 * std::sin(2 * x + z));
   }
+  // Both solvers from u0, then `steps` steps each.
+  static void start(Solver& a, Solver& b, int steps) {
+    for (Solver* s : {&a, &b}) {
+      s->initialise(u0);
+      for (int n = 0; n < steps; ++n) s->step();
+    }
+  }
   WalledCase() {
     bc.face[face(2, 0)].velocity = [](double) { return Vec3(0.1, 0.0, 1.0); };
     bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
@@ -328,12 +335,7 @@ std::string own_path(const std::string& name) {  // one per rank
 TEST(Decomposition, CheckpointsRestartOnAnotherNumberOfRanks) {
   const WalledCase c;
   Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
-  part.initialise(WalledCase::u0);
-  whole.initialise(WalledCase::u0);
-  for (int n = 0; n < 4; ++n) {
-    part.step();
-    whole.step();
-  }
+  c.start(part, whole, 4);
   write_solver_checkpoint(shared_path("ranks.h5"), part, 4, c.opt.dt);
   write_solver_checkpoint(own_path("one.h5"), whole, 4, c.opt.dt);  // a single-rank solver: each process its own
   Solver one(c.g, c.bc, c.opt), many(c.g, c.bc, c.opt, world());
@@ -369,12 +371,7 @@ TEST(Decomposition, CheckpointsRestartOnAnotherNumberOfRanks) {
 TEST(Decomposition, FieldsAreTheWholeGridsFile) {
   const WalledCase c;
   Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
-  part.initialise(WalledCase::u0);
-  whole.initialise(WalledCase::u0);
-  for (int n = 0; n < 3; ++n) {
-    part.step();
-    whole.step();
-  }
+  c.start(part, whole, 3);
   const RectilinearAxes axes = rectilinear(c.g);
   std::optional<FieldWriter> wp, ww;
   if (world()->rank() == 0) wp.emplace(shared_path("fields_ranks"), "fields", axes);
