@@ -1,18 +1,24 @@
-// Strong scaling of the decomposed Navier-Stokes step: a three-dimensional Taylor-Green vortex (Re = 1600 on the
-// vortex scale, the usual transition case) in a periodic box of n^3 cells, the same steps on however many ranks
-// mpiexec starts. Rank 0 prints the whole-problem cost per cell and step, the pressure iterations per step and what
-// each rank communicated per step (exchanges, bytes, reductions), the figures of the cost model in
-// docs/theory/scale-out.md. Run, e.g. (bench/mpi_scaling.sh does all three):
-//   OMP_NUM_THREADS=2 mpiexec -n 1 ./build/bench/bench_mpi_scaling 96 20
-//   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to core ./build/bench/bench_mpi_scaling 96 20
-// Arguments: n (cells per side, default 96), timed steps (default 20); 5 untimed steps come first.
+// Strong scaling of the decomposed Navier-Stokes step, the same steps on however many ranks mpiexec starts:
+//  - a three-dimensional Taylor-Green vortex (Re = 1600 on the vortex scale) in a periodic box of n^3 cells;
+//  - `hawkmoth`: the flapping hawkmoth of bench_immersed (bench/flapping_case.hpp, 4.3 M cells, Re = 1000), the
+//    immersed boundary on each rank's window.
+// Rank 0 prints the whole-problem cost per cell and step, the pressure iterations per step and what each rank
+// communicated per step (exchanges, bytes, reductions), the figures of the cost model in docs/theory/scale-out.md,
+// and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
+// ranks, alternated, e.g.
+//   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling 96 20
+//   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling hawkmoth 20
+// Arguments: n (cells per side, default 96) or `hawkmoth`, timed steps (default 20); 5 (hawkmoth: 10) untimed
+// steps come first.
 #include <mpi.h>
 #include <omp.h>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
+#include "bench/flapping_case.hpp"
 #include "cfd/navier_stokes/solver.hpp"
 
 using namespace flapstab::ns;
@@ -21,19 +27,28 @@ using flapstab::Vec3;
 int main(int argc, char** argv) {
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
-  const int n = argc > 1 ? std::atoi(argv[1]) : 96, steps = argc > 2 ? std::atoi(argv[2]) : 20;
+  const bool moth = argc > 1 && std::string(argv[1]) == "hawkmoth";
+  const int n = argc > 1 && !moth ? std::atoi(argv[1]) : 96, steps = argc > 2 ? std::atoi(argv[2]) : 20;
   const auto dec = Decomposition::world();
-  const double L = 2 * M_PI;
-  const Grid g(Axis::uniform(0, L, n, true), Axis::uniform(0, L, n, true), Axis::uniform(0, L, n, true));
-  SolverOptions opt;
-  opt.nu = 1.0 / 1600;
-  opt.dt = 0.5 * L / n;  // CFL about 0.5 * 3 at the vortex's speed 1
-  opt.poisson.rtol = 1e-6;
-  Solver s(g, Boundaries::all(BC::periodic), opt, dec);
-  s.initialise([](double x, double y, double z) {
-    return Vec3(std::sin(x) * std::cos(y) * std::cos(z), -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
-  });
-  for (int k = 0; k < 5; ++k) s.step();
+  std::unique_ptr<flapstab::bench::FlappingCase> f;
+  std::unique_ptr<Solver> box;
+  if (moth) {
+    f = flapstab::bench::hawkmoth(SolverOptions{}.poisson, dec);
+  } else {
+    const double L = 2 * M_PI;
+    const Grid g(Axis::uniform(0, L, n, true), Axis::uniform(0, L, n, true), Axis::uniform(0, L, n, true));
+    SolverOptions opt;
+    opt.nu = 1.0 / 1600;
+    opt.dt = 0.5 * L / n;  // CFL about 0.5 * 3 at the vortex's speed 1
+    opt.poisson.rtol = 1e-6;
+    box = std::make_unique<Solver>(g, Boundaries::all(BC::periodic), opt, dec);
+    box->initialise([](double x, double y, double z) {
+      return Vec3(std::sin(x) * std::cos(y) * std::cos(z), -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
+    });
+  }
+  Solver& s = moth ? *f->solver : *box;
+  const Grid& g = s.whole_grid();
+  for (int k = 0; k < (moth ? 10 : 5); ++k) s.step();
   const Decomposition::Traffic before = dec->traffic();
   long cycles = 0;
   MPI_Barrier(MPI_COMM_WORLD);
@@ -46,12 +61,23 @@ int main(int argc, char** argv) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Decomposition::Traffic& after = dec->traffic();
   const double energy = s.kinetic_energy();
+  Vec3 force = Vec3::Zero();
+  if (moth)
+    for (const PartLoads& l : f->ib->exchange_loads(s, Vec3::Zero())) force += l.force();
+  const std::string label = moth ? "hawkmoth " + std::to_string(g.shape().nx) + "x" + std::to_string(g.shape().ny) +
+                                       "x" + std::to_string(g.shape().nz)
+                                 : std::to_string(n) + "^3";
   if (dec->rank() == 0)
-    std::printf("ranks %d threads %d cells %d^3 steps %d: %.1f ns per cell step (whole grid), %.2f s, %.2f pressure "
-                "iterations per step, kinetic energy %.12e; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
+    std::printf("ranks %d threads %d cells %s steps %d: %.1f ns per cell step (whole grid), %.2f s, %.2f pressure "
+                "iterations per step, kinetic energy %.12e%s; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
                 "%.1f gathers, %.1f reductions; slab of %d planes\n",
-                dec->size(), omp_get_max_threads(), n, steps, seconds * 1e9 / (double(steps) * g.cells()), seconds,
-                double(cycles) / steps, energy, double(after.exchanges - before.exchanges) / steps,
+                dec->size(), omp_get_max_threads(), label.c_str(), steps, seconds * 1e9 / (double(steps) * g.cells()),
+                seconds,
+                double(cycles) / steps, energy,
+                moth ? (", force " + std::to_string(force.x()) + " " + std::to_string(force.y()) + " " +
+                        std::to_string(force.z()) + " N").c_str()
+                     : "",
+                double(after.exchanges - before.exchanges) / steps,
                 (after.bytes - before.bytes) / steps, double(after.gathers - before.gathers) / steps,
                 double(after.reductions - before.reductions) / steps, s.slab().n);
   MPI_Finalize();

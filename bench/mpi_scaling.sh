@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Strong scaling of the decomposed Navier-Stokes step on this machine: the same n^3 Taylor-Green steps on one rank
-# with 1 and with 2 OpenMP threads, and on 2 ranks of 1 thread each, alternated `rounds` times (the machines are
-# shared and noisy: compare the medians). Usage: bench/mpi_scaling.sh [build dir] [n] [steps] [rounds]
+# Strong scaling of the decomposed Navier-Stokes step on this machine: the same steps (n^3 Taylor-Green, or the
+# flapping hawkmoth with `hawkmoth` for n) on one rank with 1 and with 2 OpenMP threads, and on 2 ranks of 1 thread
+# each, alternated `rounds` times (the machines are shared and noisy: compare the medians).
+# Usage: bench/mpi_scaling.sh [build dir] [n | hawkmoth] [steps] [rounds]
 set -euo pipefail
 build=${1:-build}; n=${2:-96}; steps=${3:-20}; rounds=${4:-3}
 bin="$build/bench/bench_mpi_scaling"
