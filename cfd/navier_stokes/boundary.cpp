@@ -118,7 +118,9 @@ void impose_normal_velocity(VectorField& u, const Boundaries& bc, double t, cons
       for_each_line_at(u[a].shape(), a, [&](std::ptrdiff_t o, std::ptrdiff_t s, int n, int kb, int kc) {
         real* l = q + o;
         if (lo.type != BC::interface)
-          l[s] = lo.type != BC::velocity ? l[2 * s] : lo.field ? real(lo.at(t, wall_point(*grid, a, 0, a, kb, kc))[a]) : ulo;
+          l[s] = lo.type != BC::velocity ? l[2 * s]
+                 : lo.field              ? real(lo.at(t, wall_point(*grid, a, 0, a, kb, kc))[a])
+                                         : ulo;
         if (hi.type != BC::interface)
           l[(n + 1) * s] = hi.type != BC::velocity ? l[n * s]
                            : hi.field              ? real(hi.at(t, wall_point(*grid, a, 1, a, kb, kc))[a])

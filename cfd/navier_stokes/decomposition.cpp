@@ -46,8 +46,8 @@ std::shared_ptr<const Decomposition> Decomposition::world() {
 
 std::vector<Slab> Decomposition::slabs(int cells, int unit, bool periodic) const {
   if (unit < 1 || cells % unit != 0)
-    throw std::invalid_argument("navier_stokes decomposition: " + std::to_string(cells) + " planes are not whole units of " +
-                                std::to_string(unit));
+    throw std::invalid_argument("navier_stokes decomposition: " + std::to_string(cells) +
+                                " planes are not whole units of " + std::to_string(unit));
   const int units = cells / unit;
   if (units < size_)
     throw std::invalid_argument("navier_stokes decomposition: the z axis has " + std::to_string(cells) + " cells, " +
@@ -129,8 +129,8 @@ void Decomposition::gather_field(const Field& local, const std::vector<Slab>& sl
   const int first = rank_ == 0 ? 0 : 1;
   ++traffic_.gathers;
   traffic_.bytes += double(counts[std::size_t(rank_)]) * sizeof(double);
-  MPI_Gatherv(local.data() + s(0, 0, first), counts[std::size_t(rank_)], MPI_DOUBLE, rank_ == 0 ? whole.data() : nullptr,
-              counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
+  MPI_Gatherv(local.data() + s(0, 0, first), counts[std::size_t(rank_)], MPI_DOUBLE,
+              rank_ == 0 ? whole.data() : nullptr, counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
 }
 
 void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& window) const {

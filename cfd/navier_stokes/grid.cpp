@@ -161,8 +161,8 @@ double Axis::max_ratio() const {
 
 Axis Axis::slice(const Slab& s) const {
   if (s.n < 1 || s.offset < 0 || s.offset + s.n > n)
-    bad("slab of cells " + std::to_string(s.offset + 1) + ".." + std::to_string(s.offset + s.n) + " outside the axis of " +
-        std::to_string(n));
+    bad("slab of cells " + std::to_string(s.offset + 1) + ".." + std::to_string(s.offset + s.n) +
+        " outside the axis of " + std::to_string(n));
   if (!(s.cut_lo || s.cut_hi)) return *this;
   Axis a = *this;
   a.n = s.n;

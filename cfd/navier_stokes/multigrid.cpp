@@ -475,9 +475,9 @@ Multigrid::Multigrid(const Grid& g, const ScalarBCs& bc, std::shared_ptr<const D
   if (dec_ && dec_->distributed()) {
     const int unit = z_unit_of(h, dec_->size());
     if (unit < 2)
-      throw std::invalid_argument("multigrid: the z axis of " + std::to_string(g.axis[2].n) + " cells cannot be split over " +
-                                  std::to_string(dec_->size()) + " ranks (it must coarsen at least once, leaving a block "
-                                  "of 2 planes per rank)");
+      throw std::invalid_argument("multigrid: the z axis of " + std::to_string(g.axis[2].n) +
+                                  " cells cannot be split over " + std::to_string(dec_->size()) +
+                                  " ranks (it must coarsen at least once, leaving a block of 2 planes per rank)");
     int F = 1;
     for (int l = 0; l < levels; ++l) {
       slabs_.push_back(dec_->slabs(h.grids[std::size_t(l)].axis[2].n, unit / F, g.axis[2].periodic));

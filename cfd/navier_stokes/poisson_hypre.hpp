@@ -1,10 +1,11 @@
 // hypre's structured multigrid as the pressure solver's alternative back end (PoissonOptions::backend): conjugate
 // gradients preconditioned by one SMG V-cycle (Schaffer 1998, SIAM J Sci Comput 20:228; hypre reference manual,
 // "Struct SMG"), on one MPI rank (MPI_COMM_SELF: the copies of a campaign solve their own flows) or over the ranks of
-// a decomposition (MPI_COMM_WORLD, each rank giving its z slab). SMG smooths whole planes and lines, so it converges on grids with very elongated
-// cells where the project's point smoother stalls (tests/cfd/test_ns_poisson.cpp, a thin slab with cells 23 times
-// longer than deep). A periodic axis needs a power-of-two cell count (refused otherwise). Built when CMake finds
-// hypre and MPI (FLAPSTAB_HAVE_HYPRE); otherwise hypre_available() is false and constructing one throws.
+// a decomposition (MPI_COMM_WORLD, each rank giving its z slab). SMG smooths whole planes and lines, so it converges
+// on grids with very elongated cells where the project's point smoother stalls (tests/cfd/test_ns_poisson.cpp, a
+// thin slab with cells 23 times longer than deep). A periodic axis needs a power-of-two cell count (refused
+// otherwise). Built when CMake finds hypre and MPI (FLAPSTAB_HAVE_HYPRE); otherwise hypre_available() is false and
+// constructing one throws.
 #pragma once
 #include <memory>
 #include "cfd/navier_stokes/field.hpp"

@@ -19,7 +19,8 @@ constexpr double rk3_end[3] = {8.0 / 15.0, 2.0 / 3.0, 1.0};
 
 Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<const Decomposition> dec)
     : dec_(dec ? std::move(dec) : std::make_shared<const Decomposition>()), slab_(Multigrid::rank_slab(grid, *dec_)),
-      whole_(grid), grid_(grid.slice_z(slab_)), window_grid_(grid_), bc_(bc.local(slab_)), pbc_(bc_.pressure()), opt_(opt),
+      whole_(grid), grid_(grid.slice_z(slab_)), window_grid_(grid_), bc_(bc.local(slab_)), pbc_(bc_.pressure()),
+      opt_(opt),
       poisson_(grid, bc.pressure(), dec_), u_(grid_.shape()), ustar_(grid_.shape()), rhs_u_(grid_.shape()),
       p_(grid_.shape()), div_(grid_.shape()), phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
   bc.check(grid);

@@ -63,8 +63,9 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
   const CheckpointReader ck(path);
   const Shape whole = s.whole_grid().shape();
   for (const char* name : {"u0", "p"})
-    if (ck.contains(name) && ck.shape(name) != std::vector<std::size_t>{std::size_t(whole.nz + 2),
-                                                                         std::size_t(whole.ny + 2), std::size_t(whole.nx + 2)})
+    if (ck.contains(name) &&
+        ck.shape(name) != std::vector<std::size_t>{std::size_t(whole.nz + 2), std::size_t(whole.ny + 2),
+                                                   std::size_t(whole.nx + 2)})
       throw InputError(path, name, "array of another grid's shape",
                        fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
   SimulationState w = read_state(ck, whole);

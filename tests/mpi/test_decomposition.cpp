@@ -64,7 +64,8 @@ Difference compare(const Field& local, const Field& whole, const Slab& sl, bool 
 // A smooth right-hand side with all scales (the sum of a few modes and a local bump), zero volume-weighted mean
 // left to the solver.
 double rhs(const std::array<double, 3>& x) {
-  return std::sin(3 * x[0]) * std::cos(2 * x[1]) * std::sin(5 * x[2] + 0.3) + std::exp(-20 * (x[0] * x[0] + x[2] * x[2]));
+  return std::sin(3 * x[0]) * std::cos(2 * x[1]) * std::sin(5 * x[2] + 0.3) +
+         std::exp(-20 * (x[0] * x[0] + x[2] * x[2]));
 }
 
 Field whole_rhs(const Grid& g) {
@@ -238,7 +239,8 @@ TEST(Decomposition, TaylorGreenVortexInAPeriodicBox) {
   EXPECT_LE(c.dp, 1e-10 * c.p) << "max |p| " << c.p;
   EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole);
   if (world()->rank() == 0)
-    std::printf("[ rank 0 ] Taylor-Green, 12 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n", c.du,
+    std::printf("[ rank 0 ] Taylor-Green, 12 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n",
+                c.du,
                 c.u, c.dp, c.p);
 }
 
@@ -450,13 +452,17 @@ TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
       "below_R = 0\nsteps_per_cycle = 80\nthreads = 1\n";
   const Case c = flapstab::load_case(flapstab::testing::write_temp(
       "mpi_moth_" + std::to_string(world()->rank()) + ".toml",
-      flapstab::testing::replace(flapstab::testing::valid_cfd_case_text(), "[trim]\n", "[aero.cfd]\n" + keys + "\n[trim]\n")));
+      flapstab::testing::replace(flapstab::testing::valid_cfd_case_text(), "[trim]\n",
+                                 "[aero.cfd]\n" + keys + "\n[trim]\n")));
   const CfdPlan plan = plan_cfd(c, c.kinematics, BodyMotion{});
   // Pressure solves to 1e-10: at the default 1e-3 one side can take one more iteration where a residual lies within
   // round-off of its target, and the loads then differ by about 1e-9 of their scale (measured), not round-off.
-  Simulation whole(c, c.kinematics, BodyMotion{}, plan, SimulationOptions{.pressure_rtol = 1e-10});
-  Simulation part(c, c.kinematics, BodyMotion{}, plan,
-                  SimulationOptions{.decomposition = world(), .pressure_rtol = 1e-10});
+  SimulationOptions tight;
+  tight.pressure_rtol = 1e-10;
+  SimulationOptions split = tight;
+  split.decomposition = world();
+  Simulation whole(c, c.kinematics, BodyMotion{}, plan, tight);
+  Simulation part(c, c.kinematics, BodyMotion{}, plan, split);
   double df = 0, f = 0;
   for (int n = 0; n < 10; ++n) {
     const StepReport a = whole.advance(), b = part.advance();
@@ -469,8 +475,9 @@ TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
   EXPECT_GT(f, 0);
   EXPECT_LE(df, 1e-10 * f);
   if (world()->rank() == 0)
-    std::printf("[ rank 0 ] flapping moth, %d x %d x %d cells, 10 steps: part loads differ by %.3g of %.3g N; slab of %d "
-                "planes\n", plan_grid(plan).shape().nx, plan_grid(plan).shape().ny, plan_grid(plan).shape().nz, df, f,
+    std::printf("[ rank 0 ] flapping moth, %d x %d x %d cells, 10 steps: part loads differ by %.3g of %.3g N; slab "
+                "of %d planes\n",
+                plan_grid(plan).shape().nx, plan_grid(plan).shape().ny, plan_grid(plan).shape().nz, df, f,
                 part.solver().slab().n);
 }
 
