@@ -131,8 +131,8 @@ int launched_processes() {
 }  // namespace
 
 int run_cfd_command(const CfdCommandOptions& o) {
-  // One flow in one process: the solver's MPI decomposition does not take immersed bodies yet, and copies started
-  // by mpiexec would all make the same run into the same directory.
+  // One flow in one process: a run's files and its force partitioning are not decomposed over MPI ranks yet, and
+  // copies started by mpiexec would all make the same run into the same directory.
   if (const int n = launched_processes(); n > 1)
     throw InputError("mpiexec", "-n",
                      fmt::format("flapstab cfd runs one flow in one process, and mpiexec started {} copies of it (they "

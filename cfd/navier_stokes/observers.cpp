@@ -149,22 +149,32 @@ void FieldOutput::write(const Simulation& sim) {
     writer_.emplace(dir_, "fields", axes, precision_);
     axes_ = std::move(axes);
   }
-  const CentreFields cf = centre_fields(grid, sim.solver().velocity());
-  const Shape sh = grid.shape();
-  std::vector<double> pa(sh.cells());
+  const FlowFields ff = flow_fields(grid, sim.solver().velocity(), sim.solver().pressure(), sim.plan().rho);
+  const std::vector<double> solid = sim.solid_mask();
+  std::vector<CellField> fields = ff.fields();
+  fields.push_back(CellField{"solid", "1", {CellArray{solid.data()}}});
+  writer_->write(sim.time(), sim.step(), fields);
+}
+
+FlowFields flow_fields(const Grid& g, const VectorField& u, const Field& p, double density) {
+  FlowFields f;
+  f.centre = centre_fields(g, u);
+  const Shape sh = g.shape();
+  f.pressure.resize(sh.cells());
   std::size_t n = 0;
-  const double rho = sim.plan().rho;
   for (int k = 1; k <= sh.nz; ++k)
     for (int j = 1; j <= sh.ny; ++j)
-      for (int i = 1; i <= sh.nx; ++i) pa[n++] = rho * sim.solver().pressure()(i, j, k);
-  const std::vector<double> solid = sim.solid_mask();
+      for (int i = 1; i <= sh.nx; ++i) f.pressure[n++] = density * p(i, j, k);
+  return f;
+}
+
+std::vector<CellField> FlowFields::fields() const {
   auto arr = [](const std::vector<double>& v) { return CellArray{v.data()}; };
-  writer_->write(sim.time(), sim.step(),
-                 {CellField{"velocity", "m/s", {arr(cf.u[0]), arr(cf.u[1]), arr(cf.u[2])}},
-                  CellField{"pressure", "Pa", {arr(pa)}},
-                  CellField{"vorticity", "1/s", {arr(cf.w[0]), arr(cf.w[1]), arr(cf.w[2])}},
-                  CellField{"q_criterion", "1/s^2", {arr(cf.q)}},
-                  CellField{"solid", "1", {arr(solid)}}});
+  const CentreFields& c = centre;
+  return {CellField{"velocity", "m/s", {arr(c.u[0]), arr(c.u[1]), arr(c.u[2])}},
+          CellField{"pressure", "Pa", {arr(pressure)}},
+          CellField{"vorticity", "1/s", {arr(c.w[0]), arr(c.w[1]), arr(c.w[2])}},
+          CellField{"q_criterion", "1/s^2", {arr(c.q)}}};
 }
 
 void SurfaceOutput::write(const Simulation& sim) {

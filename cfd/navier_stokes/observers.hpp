@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+#include "cfd/navier_stokes/diagnostics.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
 #include "cfd/navier_stokes/io_vtk.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
@@ -146,6 +147,15 @@ class ProgressLog final : public StepObserver {
 std::string fmt_seconds(double s);
 // The cell-face coordinates of a grid's interior cells (the field files' axes).
 RectilinearAxes rectilinear(const Grid& g);
+
+// The cell-centred fields of a field file: velocity (m/s), pressure (Pa: density times the kinematic pressure),
+// vorticity (1/s) and the Q criterion (1/s^2), in that order; fields() points into the arrays held here.
+struct FlowFields {
+  CentreFields centre;
+  std::vector<double> pressure;
+  std::vector<CellField> fields() const;
+};
+FlowFields flow_fields(const Grid& g, const VectorField& u, const Field& p, double density);
 // The checkpoint files checkpoint_STEP.h5 in a directory, by step.
 std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir);
 

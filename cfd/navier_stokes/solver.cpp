@@ -25,14 +25,16 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<cons
       p_(grid_.shape()), div_(grid_.shape()), phi_(grid_.shape()), flags_(grid_.shape().size(), CellFlag::fluid) {
   bc.check(grid);
   bc_.check(grid_);
-  windowed_ = dec_->distributed() && !grid.axis[2].periodic;
-  if (windowed_) {  // the hooks' window: hook_halo more planes at each cut
+  slabs_ = dec_->distributed()
+               ? dec_->slabs(grid.axis[2].n, Multigrid::z_unit(grid, dec_->size()), grid.axis[2].periodic)
+               : std::vector<Slab>{slab_};
+  // The hooks' window: hook_halo more planes at each cut (its fields come with the hooks). It needs a z axis that is
+  // not periodic and neighbours of at least hook_halo + 1 planes; attach() refuses hooks otherwise.
+  windowed_ = dec_->distributed() && !grid.axis[2].periodic &&
+              std::all_of(slabs_.begin(), slabs_.end(), [](const Slab& s) { return s.n >= hook_halo + 1; });
+  if (windowed_) {
     const int lo = slab_.cut_lo ? hook_halo : 0, hi = slab_.cut_hi ? hook_halo : 0;
     window_grid_ = grid.slice_z(Slab{slab_.offset - lo, slab_.n + lo + hi, slab_.cut_lo, slab_.cut_hi});
-    const Shape ws = window_grid_.shape();
-    wu_ = VectorField(ws);
-    wp_ = Field(ws);
-    wflags_.assign(ws.size(), CellFlag::fluid);
   }
   viscous_rate_ = dec_->max(max_viscous_rate(grid_, opt_.nu));
   if (!(opt_.nu >= 0)) throw std::invalid_argument("navier_stokes solver: viscosity nu must be >= 0");
@@ -165,15 +167,12 @@ void Solver::initialise(const std::function<Vec3(double, double, double)>& u0, d
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
   exchange(u_);
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);
-  if (windowed_) {  // hook_velocity() and hook_pressure() before the first step
-    for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);
-    widen(p_, wp_);
-  }
+  if (windowed_ && hooks_) refresh_window();  // hook_velocity() and hook_pressure() before the first step
 }
 
-std::vector<Slab> Solver::slabs() const {
-  if (!dec_->distributed()) return {slab_};
-  return dec_->slabs(whole_.axis[2].n, Multigrid::z_unit(whole_, dec_->size()), whole_.axis[2].periodic);
+void Solver::refresh_window() {
+  for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);
+  widen(p_, wp_);
 }
 
 void Solver::exchange(VectorField& u) const {
@@ -185,13 +184,22 @@ void Solver::attach(StageHooks* hooks) {
     if (whole_.axis[2].periodic)
       throw std::invalid_argument("navier_stokes solver: immersed bodies over several MPI ranks need a z axis that is "
                                   "not periodic");
-    for (const Slab& s : slabs())
+    for (const Slab& s : slabs_)
       if (s.n < hook_halo + 1)
         throw std::invalid_argument(fmt::format(
             "navier_stokes solver: immersed bodies over MPI ranks need slabs of at least {} planes (a rank holds {}): "
             "use fewer ranks or more z cells", hook_halo + 1, s.n));
   }
   hooks_ = hooks;
+  if (hooks_ && windowed_) {  // the window's fields, allocated once and filled from the current state
+    const Shape ws = window_grid_.shape();
+    if (!(wp_.shape() == ws)) {
+      wu_ = VectorField(ws);
+      wp_ = Field(ws);
+      wflags_.assign(ws.size(), CellFlag::fluid);
+    }
+    refresh_window();
+  }
 }
 
 void Solver::keep_own(const Field& w, Field& f) const {
@@ -300,9 +308,8 @@ void Solver::after_projection(double t) {
     if (hooks_) hooks_->after_projection(u_, p_, t);
     return;
   }
-  for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);  // also what hook_velocity() gives the loads
-  widen(p_, wp_);
-  if (!hooks_) return;
+  if (!hooks_) return;  // a flow without bodies needs no window
+  refresh_window();  // also what hook_velocity() gives the loads
   hooks_->after_projection(wu_, wp_, t);
   keep_own(wp_, p_);
   fill_ghosts(p_, pbc_);

@@ -105,7 +105,8 @@ class Solver {
 
   const Grid& grid() const { return grid_; }
   const Slab& slab() const { return slab_; }  // this rank's planes of the whole grid's z axis
-  // The grid and fields the hooks see (the slab's own on one rank), and the hook grid's planes this rank owns.
+  // The grid and fields the hooks see (the slab's own on one rank; over ranks the window, whose fields exist while
+  // hooks are attached), and the hook grid's planes this rank owns.
   static constexpr int hook_halo = 4;
   const Grid& hook_grid() const { return windowed() ? window_grid_ : grid_; }
   const VectorField& hook_velocity() const { return windowed() ? wu_ : u_; }
@@ -113,7 +114,7 @@ class Solver {
   int hook_first_plane() const { return windowed() && slab_.cut_lo ? hook_halo + 1 : 1; }
   int hook_last_plane() const { return hook_first_plane() + slab_.n - 1; }
   const Grid& whole_grid() const { return whole_; }
-  std::vector<Slab> slabs() const;            // every rank's
+  const std::vector<Slab>& slabs() const { return slabs_; }  // every rank's
   const Decomposition& decomposition() const { return *dec_; }
   const Boundaries& boundaries() const { return bc_; }
   const SolverOptions& options() const { return opt_; }
@@ -145,9 +146,11 @@ class Solver {
   bool windowed() const { return windowed_; }  // over ranks with a z axis that is not periodic
   void widen(const Field& f, Field& w) const { dec_->widen(f, slab_, hook_halo, w); }
   void keep_own(const Field& w, Field& f) const;  // the slab's planes of a window field back into f
+  void refresh_window();  // the window's velocity and pressure from this rank's and its neighbours' planes
 
   std::shared_ptr<const Decomposition> dec_;
   Slab slab_;
+  std::vector<Slab> slabs_;  // every rank's
   Grid whole_, grid_, window_grid_;
   Boundaries bc_;
   ScalarBCs pbc_;

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <fmt/format.h>
-#include "cfd/navier_stokes/diagnostics.hpp"
+#include "cfd/navier_stokes/observers.hpp"
 #include "core/errors.hpp"
 
 namespace flapstab::ns {
@@ -32,7 +32,7 @@ void copy_planes(const Field& whole, const Slab& sl, Field& local) {
 
 SimulationState gather_state(const Solver& s, long step, double dt_last) {
   const Decomposition& D = s.decomposition();
-  const std::vector<Slab> slabs = s.slabs();
+  const std::vector<Slab>& slabs = s.slabs();
   SimulationState st;
   st.time = s.time();
   st.step = step;
@@ -88,7 +88,7 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
 
 std::string write_solver_fields(FieldWriter* writer, const Solver& s, double density, long step) {
   const Decomposition& D = s.decomposition();
-  const std::vector<Slab> slabs = s.slabs();
+  const std::vector<Slab>& slabs = s.slabs();
   const Grid& g = s.whole_grid();
   const Shape sh = g.shape();
   VectorField u;
@@ -102,18 +102,8 @@ std::string write_solver_fields(FieldWriter* writer, const Solver& s, double den
   std::string out;
   on_root(D, [&] {
     if (!writer) throw std::invalid_argument("navier_stokes fields: rank 0 needs a field writer");
-    const CentreFields cf = centre_fields(g, u);
-    std::vector<double> pa(sh.cells());
-    std::size_t n = 0;
-    for (int k = 1; k <= sh.nz; ++k)
-      for (int j = 1; j <= sh.ny; ++j)
-        for (int i = 1; i <= sh.nx; ++i) pa[n++] = density * p(i, j, k);
-    auto arr = [](const std::vector<double>& v) { return CellArray{v.data()}; };
-    out = writer->write(s.time(), step,
-                        {CellField{"velocity", "m/s", {arr(cf.u[0]), arr(cf.u[1]), arr(cf.u[2])}},
-                         CellField{"pressure", "Pa", {arr(pa)}},
-                         CellField{"vorticity", "1/s", {arr(cf.w[0]), arr(cf.w[1]), arr(cf.w[2])}},
-                         CellField{"q_criterion", "1/s^2", {arr(cf.q)}}});
+    const FlowFields ff = flow_fields(g, u, p, density);  // the fields of flapstab cfd's files, less the solid mask
+    out = writer->write(s.time(), step, ff.fields());
   });
   return out;
 }

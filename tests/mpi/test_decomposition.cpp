@@ -6,7 +6,7 @@
 // - time steps of a three-dimensional Taylor-Green vortex in a periodic box (the z axis a ring of ranks), and of a
 //   flow through a walled box with stretched axes, an inflow and an outflow face, a sponge layer and a turning
 //   frame (the slabs' end ranks at walls): to round-off of the velocity scale.
-// Nothing here is timed; bench/bench_navier_stokes.cpp measures the speed-up.
+// Nothing here is timed; bench/bench_mpi_scaling.cpp (bench/mpi_scaling.sh) measures the speed-up.
 #include <gtest/gtest.h>
 #include <mpi.h>
 #include <algorithm>
@@ -222,85 +222,7 @@ Comparison run_both(const Grid& g, const Boundaries& bc, const SolverOptions& op
   return c;
 }
 
-TEST(Decomposition, TaylorGreenVortexInAPeriodicBox) {
-  const double L = 2 * M_PI;
-  const Grid g(Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 32, true));
-  SolverOptions opt;
-  opt.nu = 0.01;
-  opt.cfl = 0.8;
-  opt.poisson.rtol = 1e-8;
-  const Comparison c = run_both(g, Boundaries::all(BC::periodic), opt,
-                                [](double x, double y, double z) {
-                                  return Vec3(std::sin(x) * std::cos(y) * std::cos(z),
-                                              -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
-                                },
-                                12, true);
-  EXPECT_LE(c.du, 1e-11 * c.u) << "max |u| " << c.u;
-  EXPECT_LE(c.dp, 1e-10 * c.p) << "max |p| " << c.p;
-  EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole);
-  if (world()->rank() == 0)
-    std::printf("[ rank 0 ] Taylor-Green, 12 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n",
-                c.du,
-                c.u, c.dp, c.p);
-}
-
-TEST(Decomposition, FlowThroughAWalledBoxWithASpongeInATurningFrame) {
-  const Grid g = walled_grid(24, 16, 40);
-  Boundaries bc = Boundaries::all(BC::velocity);
-  const Vec3 Omega(0.3, -0.2, 0.5);
-  for (auto& f : bc.face)  // the far field seen from the turning frame, a stream along +z
-    f.field = [Omega](double, const Vec3& x) { return Vec3(Vec3(0.1, 0.0, 1.0) - Omega.cross(x)); };
-  bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
-  SolverOptions opt;
-  opt.nu = 0.02;
-  opt.cfl = 0.8;
-  opt.frame_rate = Omega;
-  opt.poisson.rtol = 1e-8;
-  opt.sponge.width = {0, 0, 0, 0, 0.6, 0.8};
-  opt.sponge.rate = 4;
-  opt.sponge.velocity = Vec3(0.1, 0.0, 1.0);
-  const Comparison c = run_both(g, bc, opt,
-                                [](double x, double y, double z) {
-                                  return Vec3(0.1 + 0.5 * std::sin(2 * y) * std::exp(-z * z), 0.3 * std::cos(3 * x),
-                                              1.0 + 0.4 * std::sin(2 * x + z));
-                                },
-                                10, false);
-  EXPECT_LE(c.du, 1e-11 * c.u) << "max |u| " << c.u;
-  EXPECT_LE(c.dp, 1e-10 * c.p) << "max |p| " << c.p;
-  EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole);
-  if (world()->rank() == 0)
-    std::printf("[ rank 0 ] walled box, 10 steps: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n",
-                c.du, c.u, c.dp, c.p);
-}
-
-// The walled box's steps with hypre's pressure solver over the ranks against the single-rank multigrid, both to
-// 1e-10: the two solves leave different divergence residuals (each below 1e-10 of the predictor's divergence), so
-// the velocities agree to the solver tolerance, not to round-off.
-TEST(Decomposition, HypreOverRanksInTheTimeStep) {
-  if (!hypre_available()) GTEST_SKIP() << "hypre not built in";
-  const Grid g = walled_grid(24, 16, 40);
-  Boundaries bc = Boundaries::all(BC::velocity);
-  bc.face[face(2, 0)].velocity = [](double) { return Vec3(0.1, 0.0, 1.0); };
-  bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
-  SolverOptions opt;
-  opt.nu = 0.02;
-  opt.dt = 0.02;
-  opt.poisson.rtol = 1e-10;
-  opt.poisson.max_cycles = 100;
-  const Comparison c = run_both(g, bc, opt,
-                                [](double x, double y, double z) {
-                                  return Vec3(0.1 + 0.5 * std::sin(2 * y) * std::exp(-z * z), 0.3 * std::cos(3 * x),
-                                              1.0 + 0.4 * std::sin(2 * x + z));
-                                },
-                                5, false, PoissonBackend::hypre);
-  EXPECT_LE(c.du, 1e-10 * c.u) << "max |u| " << c.u;  // the solves' tolerance
-  EXPECT_LE(c.dp, 1e-9 * c.p) << "max |p| " << c.p;
-  if (world()->rank() == 0)
-    std::printf("[ rank 0 ] hypre in the time step, 5 steps: max velocity difference %.3g of %.3g, pressure %.3g of "
-                "%.3g\n", c.du, c.u, c.dp, c.p);
-}
-
-// The walled box of the test above without the turning frame.
+// A flow through the walled box: inflow at z-, outflow at z+, walls at rest elsewhere.
 struct WalledCase {
   Grid g = walled_grid(24, 16, 40);
   Boundaries bc = Boundaries::all(BC::velocity);
@@ -323,6 +245,68 @@ struct WalledCase {
     opt.poisson.rtol = 1e-8;
   }
 };
+
+// The checks of a run_both comparison to round-off: velocity, pressure (to 1e-10 of its scale: it carries the
+// projections' increments, each from a solve to its tolerance) and kinetic energy.
+void expect_round_off(const Comparison& c, const char* what) {
+  EXPECT_LE(c.du, 1e-11 * c.u) << what << ": max |u| " << c.u;
+  EXPECT_LE(c.dp, 1e-10 * c.p) << what << ": max |p| " << c.p;
+  EXPECT_NEAR(c.energy_part, c.energy_whole, 1e-12 * c.energy_whole) << what;
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] %s: max velocity difference %.3g of %.3g, pressure %.3g of %.3g\n", what, c.du, c.u, c.dp,
+                c.p);
+}
+
+TEST(Decomposition, TaylorGreenVortexInAPeriodicBox) {
+  const double L = 2 * M_PI;
+  const Grid g(Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 24, true), Axis::uniform(0, L, 32, true));
+  SolverOptions opt;
+  opt.nu = 0.01;
+  opt.cfl = 0.8;
+  opt.poisson.rtol = 1e-8;
+  const Comparison c = run_both(g, Boundaries::all(BC::periodic), opt,
+                                [](double x, double y, double z) {
+                                  return Vec3(std::sin(x) * std::cos(y) * std::cos(z),
+                                              -std::cos(x) * std::sin(y) * std::cos(z), 0.0);
+                                },
+                                12, true);
+  expect_round_off(c, "Taylor-Green, 12 steps");
+}
+
+TEST(Decomposition, FlowThroughAWalledBoxWithASpongeInATurningFrame) {
+  const Grid g = walled_grid(24, 16, 40);
+  Boundaries bc = Boundaries::all(BC::velocity);
+  const Vec3 Omega(0.3, -0.2, 0.5);
+  for (auto& f : bc.face)  // the far field seen from the turning frame, a stream along +z
+    f.field = [Omega](double, const Vec3& x) { return Vec3(Vec3(0.1, 0.0, 1.0) - Omega.cross(x)); };
+  bc.face[face(2, 1)] = FaceCondition{BC::outflow, {}, {}};
+  SolverOptions opt;
+  opt.nu = 0.02;
+  opt.cfl = 0.8;
+  opt.frame_rate = Omega;
+  opt.poisson.rtol = 1e-8;
+  opt.sponge.width = {0, 0, 0, 0, 0.6, 0.8};
+  opt.sponge.rate = 4;
+  opt.sponge.velocity = Vec3(0.1, 0.0, 1.0);
+  expect_round_off(run_both(g, bc, opt, WalledCase::u0, 10, false), "walled box, 10 steps");
+}
+
+// The walled box's steps with hypre's pressure solver over the ranks against the single-rank multigrid, both to
+// 1e-10: the two solves leave different divergence residuals (each below 1e-10 of the predictor's divergence), so
+// the velocities agree to the solver tolerance, not to round-off.
+TEST(Decomposition, HypreOverRanksInTheTimeStep) {
+  if (!hypre_available()) GTEST_SKIP() << "hypre not built in";
+  const WalledCase w;
+  SolverOptions opt = w.opt;
+  opt.poisson.rtol = 1e-10;
+  opt.poisson.max_cycles = 100;
+  const Comparison c = run_both(w.g, w.bc, opt, WalledCase::u0, 5, false, PoissonBackend::hypre);
+  EXPECT_LE(c.du, 1e-10 * c.u) << "max |u| " << c.u;  // the solves' tolerance
+  EXPECT_LE(c.dp, 1e-9 * c.p) << "max |p| " << c.p;
+  if (world()->rank() == 0)
+    std::printf("[ rank 0 ] hypre in the time step, 5 steps: max velocity difference %.3g of %.3g, pressure %.3g of "
+                "%.3g\n", c.du, c.u, c.dp, c.p);
+}
 
 std::string shared_path(const std::string& name) {  // the same on every rank (rank 0 writes)
   return ::testing::TempDir() + "flapstab_mpi_" + std::to_string(world()->size()) + "_" + name;
@@ -488,9 +472,16 @@ TEST(Decomposition, ImmersedBodiesNeedAWalledZAxisAndThickSlabs) {
   } hooks;
   const Grid g(Axis::uniform(0, 1, 8, true), Axis::uniform(0, 1, 8, true), Axis::uniform(0, 1, 16, true));
   Solver s(g, Boundaries::all(BC::periodic), SolverOptions{.nu = 0.1}, world());
+  // A walled z axis of 8 cells: slabs of 4 planes on 2 ranks (4, 2, 2 on 3), thinner than the window's 5.
+  const Grid thin(Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false), Axis::uniform(0, 1, 8, false));
+  Solver t(thin, Boundaries::all(BC::velocity), SolverOptions{.nu = 0.1}, world());
   if (world()->distributed()) {
     EXPECT_THROW(s.attach(&hooks), std::invalid_argument);  // periodic z over ranks
+    EXPECT_THROW(t.attach(&hooks), std::invalid_argument);  // slabs thinner than 5 planes
   }
+  // A walled z axis of 40 cells (20 or 14 planes per rank) takes them.
+  Solver w(walled_grid(24, 16, 40), Boundaries::all(BC::velocity), SolverOptions{.nu = 0.1}, world());
+  EXPECT_NO_THROW(w.attach(&hooks));
 }
 
 }  // namespace
