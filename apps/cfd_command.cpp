@@ -117,39 +117,20 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
   write_file_atomic(dir + "/fpm.svg", *svg);
 }
 
-// How many processes an MPI launcher started together with this one (Open MPI; MPICH and other PMI launchers): 1
-// when none did.
-int launched_processes() {
-  for (const char* var : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
-    if (const char* v = std::getenv(var)) {
-      const int n = std::atoi(v);
-      if (n > 1) return n;
-    }
-  return 1;
-}
-
-}  // namespace
-
-int run_cfd_command(const CfdCommandOptions& o) {
-  // One flow in one process: a run's files and its force partitioning are not decomposed over MPI ranks yet, and
-  // copies started by mpiexec would all make the same run into the same directory.
-  if (const int n = launched_processes(); n > 1)
-    throw InputError("mpiexec", "-n",
-                     fmt::format("flapstab cfd runs one flow in one process, and mpiexec started {} copies of it (they "
-                                 "would all make the same run into the same directory)",
-                                 n),
-                     "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS); to share out the runs of a "
-                     "derivative table, `mpiexec -n N flapstab derivatives CASE -o DIR` (docs/user-guide.md, "
-                     "\"Campaigns\")");
+// One run of flapstab cfd: in this process, or as one rank of a decomposed run (dec).
+int run_cfd_process(const CfdCommandOptions& o, const std::shared_ptr<const ns::Decomposition>& dec) {
   const Case c = load_case_for(o.case_path, "cfd");
+  const bool root = !dec || dec->rank() == 0;
   ns::CfdRunOptions opt;
   opt.directory = o.output_dir.empty() ? c.output_directory : o.output_dir;  // read on --restart; never written by a dry run
   opt.restart = o.restart;
   opt.cycles = o.cycles;
   opt.dry_run = o.dry_run;
   opt.steps = o.steps;
-  opt.log = o.quiet ? nullptr : &std::cerr;
+  opt.log = o.quiet || !root ? nullptr : &std::cerr;
+  opt.decomposition = dec;
   const ns::CfdResult r = ns::run_cfd(c, c.kinematics, BodyMotion{}, opt);
+  if (!root) return 0;  // rank 0 plots and reports
   if (r.status == "nothing to do") {
     if (!o.quiet) fmt::print("nothing to do: {} is complete ({} steps); no file changed\n", opt.directory, r.steps);
     return 0;
@@ -175,6 +156,37 @@ int run_cfd_command(const CfdCommandOptions& o) {
     }
   }
   return 0;
+}
+
+
+}  // namespace
+
+int run_cfd_command(const CfdCommandOptions& o) {
+  // Started by mpiexec as several processes: one flow over them all, the grid in slabs (one per rank); rank 0 writes
+  // the run's files and speaks for all.
+  const std::shared_ptr<const ns::Decomposition> dec = ns::Decomposition::launched();
+  if (!dec->distributed()) return run_cfd_process(o, nullptr);
+  try {
+    return run_cfd_process(o, dec);
+  } catch (const InputError&) {  // met by every rank alike (the same input, or rank 0's failure made every rank's)
+    if (dec->rank() == 0) throw;
+    return 2;
+  } catch (const SolveError&) {
+    if (dec->rank() == 0) throw;
+    return 3;
+  } catch (const OutputError&) {
+    if (dec->rank() == 0) throw;
+    return 4;
+  } catch (const Interrupted& e) {
+    if (dec->rank() == 0) throw;
+    return 128 + e.signal();
+  } catch (const ns::RanksFailed&) {
+    if (dec->rank() == 0) throw;
+    return 1;
+  } catch (const std::exception& e) {  // perhaps this rank's alone, with the others waiting for it: end them all
+    fmt::print(stderr, "flapstab cfd (rank {} of {}): error: {}\n", dec->rank(), dec->size(), e.what());
+    dec->abort(1);
+  }
 }
 
 }  // namespace flapstab

@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
              "(docs/cfd-files.md); ends with the mean loads of the last complete wingbeat (the start-up wingbeat excluded) "
              "and forces.svg. Ctrl-C or SIGTERM stops at the end of the step with a checkpoint (exit 130 / 143). "
              "Exit status 2 for bad input (nothing written), 3 if the run diverges (the last "
-             "checkpoint is kept)");
+             "checkpoint is kept). Under `mpiexec -n N` the flow runs over N ranks (the grid in z slabs) and "
+             "rank 0 writes the same files (docs/user-guide.md)");
   cfd->add_option("case", co.case_path, "case file (TOML) with an [aero.cfd] table; see docs/case-file.md")
       ->required()->check(CLI::ExistingFile);
   cfd->add_option("-o,--output", co.output_dir, "output directory (default: the case's [output] directory)");

@@ -1,6 +1,7 @@
 // Slabs along z over MPI ranks (see decomposition.hpp).
 #include "cfd/navier_stokes/decomposition.hpp"
 #include <algorithm>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 #ifdef FLAPSTAB_HAVE_MPI
@@ -42,6 +43,49 @@ std::shared_ptr<const Decomposition> Decomposition::world() {
   throw std::runtime_error("navier_stokes decomposition: this flapstab was built without MPI (install libopenmpi-dev "
                            "and openmpi-bin, then configure again)");
 #endif
+}
+
+int Decomposition::launched_processes() {
+  for (const char* var : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
+    if (const char* v = std::getenv(var)) {
+      const int n = std::atoi(v);
+      if (n > 1) return n;
+    }
+  return 1;
+}
+
+std::shared_ptr<const Decomposition> Decomposition::launched() {
+  if (launched_processes() <= 1) return std::make_shared<const Decomposition>();
+#ifdef FLAPSTAB_HAVE_MPI
+  static const bool started = [] {
+    int init = 0;
+    MPI_Initialized(&init);
+    if (!init) {  // (the hypre back end initialises MPI itself when it comes first, and checks as here)
+      int provided = 0;
+      MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+      std::atexit([] {
+        int finalised = 0;
+        MPI_Finalized(&finalised);
+        if (!finalised) MPI_Finalize();
+      });
+    }
+    return true;
+  }();
+  (void)started;
+  return world();
+#else
+  return world();  // throws: built without MPI
+#endif
+}
+
+void Decomposition::abort(int status) const {
+#ifdef FLAPSTAB_HAVE_MPI
+  int init = 0, finalised = 0;
+  MPI_Initialized(&init);
+  MPI_Finalized(&finalised);
+  if (init && !finalised) MPI_Abort(comm_ ? comm_->comm : MPI_COMM_WORLD, status);
+#endif
+  std::exit(status);
 }
 
 std::vector<Slab> Decomposition::slabs(int cells, int unit, bool periodic) const {

@@ -1,9 +1,13 @@
 // Domain decomposition of the Navier-Stokes grid over MPI ranks: slabs along z, one per rank, with one layer of
 // ghost planes exchanged between neighbours, and the global reductions the solver needs.
 #pragma once
+#include <exception>
 #include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 #include "cfd/navier_stokes/field.hpp"
+#include "core/errors.hpp"
 
 namespace flapstab::ns {
 
@@ -26,6 +30,16 @@ class Decomposition {
   // All ranks of MPI_COMM_WORLD (MPI must be initialised); throws when flapstab was built without MPI.
   static std::shared_ptr<const Decomposition> world();
   static bool mpi_available();  // built with MPI
+  // How many processes an MPI launcher started together with this one (Open MPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE
+  // of MPICH and other PMI launchers): 1 when none did.
+  static int launched_processes();
+  // The ranks of a run started by mpiexec: when the launcher started more than one process, MPI is initialised
+  // (once; finalised at exit) and all of MPI_COMM_WORLD is returned; otherwise one rank without MPI. Throws
+  // std::runtime_error for several processes when flapstab was built without MPI.
+  static std::shared_ptr<const Decomposition> launched();
+  // Ends every rank's process at once with this exit status (MPI_Abort): for an error only some ranks met, while the
+  // others may wait in a collective operation. Without MPI: std::exit.
+  [[noreturn]] void abort(int status) const;
 
   int rank() const { return rank_; }
   int size() const { return size_; }
@@ -74,5 +88,46 @@ class Decomposition {
   std::unique_ptr<Comm> comm_;
   int rank_ = 0, size_ = 1;
 };
+
+// A failure every rank of a decomposed run met together (on_root), of no more particular kind.
+class RanksFailed : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Runs fn on rank 0 only (a file that rank 0 writes for all) and makes its failure every rank's, so that no rank
+// goes on into a collective operation that rank 0 has left: rank 0 rethrows its InputError, OutputError or
+// SolveError, the others throw one of the same kind saying that rank 0 failed; any other exception becomes
+// RanksFailed on every rank (rank 0's with its message). Every rank must call it; on one rank it is fn().
+template <class Fn>
+void on_root(const Decomposition& D, Fn&& fn) {
+  if (!D.distributed()) {
+    fn();
+    return;
+  }
+  std::exception_ptr error;
+  int kind = 0;
+  if (D.rank() == 0) try {
+      fn();
+    } catch (const InputError&) {
+      error = std::current_exception(), kind = 1;
+    } catch (const OutputError&) {
+      error = std::current_exception(), kind = 2;
+    } catch (const SolveError&) {
+      error = std::current_exception(), kind = 3;
+    } catch (const std::exception& e) {
+      error = std::make_exception_ptr(RanksFailed(e.what())), kind = 4;
+    } catch (...) {
+      error = std::make_exception_ptr(RanksFailed("unknown exception")), kind = 4;
+    }
+  kind = int(D.max(double(kind)));
+  if (kind == 0) return;
+  if (D.rank() == 0) std::rethrow_exception(error);
+  const std::string why = "rank 0 failed (its message says why)";
+  if (kind == 1) throw InputError("", "", why);
+  if (kind == 2) throw OutputError(why);
+  if (kind == 3) throw SolveError(why);
+  throw RanksFailed(why);
+}
 
 }  // namespace flapstab::ns

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "cfd/navier_stokes/diagnostics.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 
@@ -77,10 +78,14 @@ void ForcesCsv::on_step(const Simulation&, const StepReport& r) {
 }
 
 void ForcesCsv::flush() const {
-  if (path_.empty()) return;
-  std::string text = forces_csv_header(parts_);
-  for (const auto& l : lines_) text += l;
-  write_file_atomic(path_, text);
+  auto write = [&] {
+    if (path_.empty()) return;
+    std::string text = forces_csv_header(parts_);
+    for (const auto& l : lines_) text += l;
+    write_file_atomic(path_, text);
+  };
+  if (dec_) on_root(*dec_, write);
+  else write();
 }
 
 std::vector<CfdLoadRow> ForcesCsv::since(double t, double period) const {
@@ -116,16 +121,22 @@ std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir)
 
 void Checkpointer::write(const Simulation& sim) {
   const std::string path = fmt::format("{}/checkpoint_{:09d}.h5", dir_, sim.step());
-  fs::create_directories(dir_);
+  const Decomposition& D = sim.solver().decomposition();
+  on_root(D, [&] { fs::create_directories(dir_); });
   // forces.csv first: a kill between the two leaves rows beyond the newest checkpoint (dropped on restart), never
   // a checkpoint beyond the rows.
   if (csv_) csv_->flush();
   for (const auto& f : flush_) f();
-  write_state(path, sim.state(), values_, text_);
+  const SimulationState state = sim.whole_state();  // gathered on rank 0 over ranks
+  std::map<std::string, double> values = values_;
+  if (D.distributed()) values["ranks"] = D.size();
+  on_root(D, [&] {
+    write_state(path, state, values, text_);
+    auto list = checkpoints_in(dir_);  // keep the newest
+    for (std::size_t i = 0; i + std::size_t(keep_) < list.size(); ++i) fs::remove(list[i].second);
+  });
   last_ = path;
   last_step_ = sim.step();
-  auto list = checkpoints_in(dir_);  // keep the newest
-  for (std::size_t i = 0; i + std::size_t(keep_) < list.size(); ++i) fs::remove(list[i].second);
 }
 
 void Checkpointer::on_step(const Simulation& sim, const StepReport& r) {
@@ -142,18 +153,26 @@ RectilinearAxes rectilinear(const Grid& g) {
 }
 
 void FieldOutput::write(const Simulation& sim) {
-  const Grid& grid = sim.grid();
-  // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
-  RectilinearAxes axes = rectilinear(grid);
-  if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
-    writer_.emplace(dir_, "fields", axes, precision_);
-    axes_ = std::move(axes);
-  }
-  const FlowFields ff = flow_fields(grid, sim.solver().velocity(), sim.solver().pressure(), sim.plan().rho);
-  const std::vector<double> solid = sim.solid_mask();
-  std::vector<CellField> fields = ff.fields();
-  fields.push_back(CellField{"solid", "1", {CellArray{solid.data()}}});
-  writer_->write(sim.time(), sim.step(), fields);
+  const Solver& sv = sim.solver();
+  const Decomposition& D = sv.decomposition();
+  VectorField gathered_u;  // over ranks: the whole grid's fields on rank 0
+  Field gathered_p;
+  if (D.distributed()) gather_flow(sv, gathered_u, gathered_p);
+  const std::vector<double> solid = gather_cells(sv, sim.solid_mask());
+  on_root(D, [&] {
+    const Grid& grid = sim.whole_grid();
+    // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
+    RectilinearAxes axes = rectilinear(grid);
+    if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
+      writer_.emplace(dir_, "fields", axes, precision_);
+      axes_ = std::move(axes);
+    }
+    const FlowFields ff = flow_fields(grid, D.distributed() ? gathered_u : sv.velocity(),
+                                      D.distributed() ? gathered_p : sv.pressure(), sim.plan().rho);
+    std::vector<CellField> fields = ff.fields();
+    fields.push_back(CellField{"solid", "1", {CellArray{solid.data()}}});
+    writer_->write(sim.time(), sim.step(), fields);
+  });
 }
 
 FlowFields flow_fields(const Grid& g, const VectorField& u, const Field& p, double density) {
@@ -179,7 +198,6 @@ std::vector<CellField> FlowFields::fields() const {
 
 void SurfaceOutput::write(const Simulation& sim) {
   if (!sim.has_bodies()) return;
-  if (!writer_) writer_.emplace(dir_, "surfaces");
   std::vector<TriangleMesh> meshes;
   std::vector<SurfacePart> parts;
   const int n = sim.part_count();
@@ -191,7 +209,10 @@ void SurfaceOutput::write(const Simulation& sim) {
     if (!sp.back.empty()) part.data.cell_data.push_back({"pressure_back", "Pa", 1, sp.back});
     parts.push_back(std::move(part));
   }
-  writer_->write(sim.time(), sim.step(), parts);
+  on_root(sim.solver().decomposition(), [&] {
+    if (!writer_) writer_.emplace(dir_, "surfaces");
+    writer_->write(sim.time(), sim.step(), parts);
+  });
 }
 
 // ---- progress --------------------------------------------------------------------------------------------------

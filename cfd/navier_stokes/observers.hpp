@@ -38,7 +38,10 @@ class ForcesCsv final : public StepObserver {
   void keep_earlier(const std::string& file, long step, long first_step = 1);
   void on_step(const Simulation&, const StepReport& r) override;
   void on_end(const Simulation&) override { flush(); }
+  // Writes the file (rank 0 of a decomposed run: flush is then collective, and its failure every rank's).
   void flush() const;
+  // The ranks of a decomposed run (run_cfd): only rank 0 writes; null (the default) for one process.
+  void set_decomposition(std::shared_ptr<const Decomposition> d) { dec_ = std::move(d); }
   const std::vector<CfdLoadRow>& rows() const { return rows_; }        // this run's
   const std::vector<CfdLoadRow>& earlier() const { return earlier_; }  // the interrupted run's
   // Rows (earlier and this run's) with time > t - 1e-9 period.
@@ -47,12 +50,13 @@ class ForcesCsv final : public StepObserver {
  private:
   std::string path_;
   int parts_ = 3;
+  std::shared_ptr<const Decomposition> dec_;
   std::vector<CfdLoadRow> rows_, earlier_;
   std::vector<std::string> lines_;
 };
 
 // Checkpoints per wingbeat (and at the end), keeping the newest `keep`; each flushes forces.csv first, so the rows
-// always reach the newest checkpoint's step.
+// always reach the newest checkpoint's step. A decomposed run's checkpoint is the whole grid's, written by rank 0.
 class Checkpointer final : public StepObserver {
  public:
   Checkpointer(std::string directory, int per_cycle, std::map<std::string, double> values,
@@ -96,7 +100,8 @@ class PerCycleOutput : public StepObserver {
   int per_cycle_;
 };
 
-// Cell-centred velocity, pressure (Pa), vorticity and Q criterion (HDF5 + XDMF).
+// Cell-centred velocity, pressure (Pa), vorticity and Q criterion (HDF5 + XDMF) of the whole grid (a decomposed
+// run's gathered on rank 0, which writes them).
 class FieldOutput final : public PerCycleOutput {
  public:
   FieldOutput(std::string directory, int per_cycle, FieldPrecision precision)
@@ -109,7 +114,7 @@ class FieldOutput final : public PerCycleOutput {
   std::optional<FieldWriter> writer_;
 };
 
-// The parts' surfaces with their pressure (VTK PolyData series).
+// The parts' surfaces with their pressure (VTK PolyData series; rank 0 writes a decomposed run's).
 class SurfaceOutput final : public PerCycleOutput {
  public:
   using PerCycleOutput::PerCycleOutput;

@@ -44,7 +44,7 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
   const CfdPlan& plan = res.plan;
   const CfdSettings& s = c.aero.cfd;
   const BodyMotion& motion = sim.motion();
-  const Grid& grid = sim.grid();
+  const Grid& grid = sim.whole_grid();
   nlohmann::json j;
   j["program"] = "flapstab";
   j["version"] = FLAPSTAB_VERSION;
@@ -81,7 +81,8 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
                   {"seconds_per_step_estimate", res.seconds_per_step_estimate},
                   {"seconds_per_step", res.seconds_per_step},
                   {"ns_per_cell_per_step", 1e9 * res.seconds_per_step / res.cells},
-                  {"threads", omp_get_max_threads()}};
+                  {"threads", omp_get_max_threads()},
+                  {"ranks", sim.solver().decomposition().size()}};
   j["pressure_solves"] = {{"not_converged", sim.solver().unconverged_pressure_solves()},
                           {"worst_residual_over_tolerance", sim.solver().worst_pressure_residual()},
                           {"note", "solves of this process that stopped at the iteration limit above their tolerance"}};
@@ -149,12 +150,21 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   const auto t_start = clock::now();
   check_cfd_geometry(c.insect, c.path);  // before anything is planned or written (any [aero] model)
   const CfdSettings& s = c.aero.cfd;
-  std::ostream* log = o.log;
+  const std::shared_ptr<const Decomposition> dec =
+      o.decomposition ? o.decomposition : std::make_shared<const Decomposition>();
+  const Decomposition& D = *dec;
+  std::ostream* log = D.rank() == 0 ? o.log : nullptr;  // over ranks, rank 0 speaks for all
   CfdResult res;
   res.plan = plan_cfd(c, kin, motion, o.cycles);
   const CfdPlan& plan = res.plan;
-  const bool write = !o.directory.empty() && !o.dry_run;
+  const bool write = !o.directory.empty() && !o.dry_run;  // (only rank 0 of a decomposed run writes the files)
   if (o.restart && o.directory.empty()) throw InputError("", "--restart", "needs an output directory", "-o DIR");
+  if (D.distributed() && s.fpm.enabled && o.bodies)
+    throw InputError(c.path, "aero.cfd.fpm.enabled",
+                     fmt::format("force partitioning does not run over MPI ranks yet (its potentials are solved on one "
+                                 "process's grid), and mpiexec started {} ranks",
+                                 D.size()),
+                     "false, or flapstab cfd in one process");
 
   // Restart: the newest checkpoint that opens and belongs to this case.
   const std::string ckdir = o.directory + "/checkpoints";
@@ -208,15 +218,18 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   SimulationOptions so;
   so.bodies = o.bodies;
   so.initial_velocity = o.initial_velocity;
+  so.decomposition = o.decomposition;
+  so.pressure_rtol = o.pressure_rtol;
   Simulation sim(c, kin, motion, plan, so);
   if (ck) {
-    sim.restore(read_state(*ck, sim.grid().shape()));
+    sim.restore(read_state(*ck, sim.whole_grid().shape()));  // every rank reads the whole state, keeps its planes
     res.start_step = sim.step();
   }
   const long start_step = sim.step();
-  const Grid& grid = sim.grid();
+  const Grid& grid = sim.whole_grid();
   res.cells = sim.cells();
-  res.bytes = sim.bytes();
+  res.bytes = std::size_t(D.sum(double(sim.bytes())));  // all ranks' (collective: outside the rank-0-only log below)
+  const std::size_t solver_bytes = std::size_t(D.sum(double(sim.solver().bytes())));
   const double t_end = plan.cycles * plan.period;
   const long total_steps = plan.steps_per_cycle > 0 ? long(plan.cycles) * plan.steps_per_cycle : 0;
   const auto in_run = [&](long k, double t) {
@@ -226,7 +239,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     const double t0 = sim.time();
     const double dt_guess = plan.dt > 0 ? plan.dt : std::min(sim.solver().options().dt_max, sim.solver().stable_dt());
     const double steps_left_est = plan.steps_per_cycle > 0 ? double(total_steps - start_step) : (t_end - t0) / dt_guess;
-    const std::size_t ib_bytes = res.bytes - sim.solver().bytes();
+    const std::size_t ib_bytes = res.bytes - solver_bytes;
     *log << fmt::format("flapstab cfd: {} ({}), Re = {:.4g} (U_ref = 2 Phi f R = {:.4g} m/s, L_ref = mean chord = "
                         "{:.4g} m, nu = {:.4g} m^2/s)\n",
                         c.insect.name, c.path, plan.reynolds, plan.u_ref, plan.l_ref, plan.nu);
@@ -236,7 +249,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                         plan.domain_lo.x(), plan.domain_hi.x(), plan.domain_lo.y(), plan.domain_hi.y(),
                         plan.domain_lo.z(), plan.domain_hi.z());
     *log << fmt::format("  memory {:.1f} MiB ({:.0f} bytes per cell: solver {:.1f} MiB, immersed boundary {:.1f} MiB)\n",
-                        res.bytes / 1048576.0, double(res.bytes) / res.cells, sim.solver().bytes() / 1048576.0,
+                        res.bytes / 1048576.0, double(res.bytes) / res.cells, solver_bytes / 1048576.0,
                         ib_bytes / 1048576.0);
     *log << fmt::format("  {} cycles of {:.4g} s, {}{} steps{}\n", plan.cycles, plan.period,
                         plan.steps_per_cycle > 0 ? "" : "about ", long(std::ceil(steps_left_est)),
@@ -252,8 +265,9 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
 
   // Observers (files created lazily: bad input and dry runs write nothing). One run per directory at a time.
   std::optional<ExclusiveRun> exclusive;
-  if (write) exclusive.emplace(o.directory, "-o");
+  if (write) on_root(D, [&] { exclusive.emplace(o.directory, "-o"); });
   ForcesCsv csv(write ? o.directory + "/forces.csv" : std::string(), sim.part_count());
+  if (D.distributed()) csv.set_decomposition(dec);
   if (write && ck) csv.keep_earlier(o.directory + "/forces.csv", start_step);  // InputError when rows are missing
   Checkpointer checkpoints(ckdir, s.checkpoints_per_cycle,
                            {{"reynolds", plan.reynolds}, {"nu", plan.nu}, {"density", plan.rho}, {"period", plan.period}},
@@ -326,7 +340,9 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
       if (partition) partition->flush();
       return res;
     }
-    if (const int sig = interrupt_requested(); sig != 0 && in_run(sim.step(), sim.time())) {
+    // over ranks a signal stops them all at the same step (it may reach them at different times)
+    if (const int sig = D.distributed() ? int(D.max(interrupt_requested())) : interrupt_requested();
+        sig != 0 && in_run(sim.step(), sim.time())) {
       // Stop at the end of the step: the rows and a checkpoint of this step, then say how to continue.
       finish();
       std::string saved = "nothing was saved (no output directory)";
@@ -377,9 +393,11 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   }
   if (write) {
     for (auto* ob : observers) ob->on_end(sim);
-    write_run_json(o.directory + "/run.json", c, hash, sim, res);
-    for (const std::string& d : {o.directory, ckdir, o.directory + "/fields", o.directory + "/surfaces"})
-      remove_stale_temporaries(d);  // left by killed runs
+    on_root(D, [&] {
+      write_run_json(o.directory + "/run.json", c, hash, sim, res);
+      for (const std::string& d : {o.directory, ckdir, o.directory + "/fields", o.directory + "/surfaces"})
+        remove_stale_temporaries(d);  // left by killed runs
+    });
   }
   if (log && !res.fpm_summary.empty()) *log << res.fpm_summary;
   if (log && partition)

@@ -6,6 +6,7 @@
 #pragma once
 #include <functional>
 #include <iosfwd>
+#include <memory>
 #include <string>
 #include <vector>
 #include "cfd/fpm/observer.hpp"
@@ -33,6 +34,12 @@ struct CfdRunOptions {
   long steps = 0;               // > 0: run at most this many steps now (`--steps`), then stop with a checkpoint,
                                 // forces.csv and run.json (status "stopped"); --restart continues
   bool handle_signals = true;   // SIGINT/SIGTERM: stop at the end of the step, checkpoint, throw Interrupted
+  // The grid split over MPI ranks (decomposition.hpp; every rank calls run_cfd alike): the files are the whole
+  // grid's, written by rank 0 (forces.csv, run.json, checkpoints that restart on any number of ranks, fields,
+  // surfaces), the log is rank 0's, and every rank returns the result. Null: one process. Force partitioning is
+  // refused over ranks (InputError).
+  std::shared_ptr<const Decomposition> decomposition{};
+  double pressure_rtol = 0;  // > 0: the pressure solves' tolerance (SimulationOptions::pressure_rtol; tests)
 };
 
 // The result of a run: the mean loads over its last complete wingbeat, the start-up wingbeat from rest excluded.

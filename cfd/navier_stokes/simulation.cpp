@@ -1,5 +1,6 @@
 // The stepping CFD simulation (simulation.hpp).
 #include "cfd/navier_stokes/simulation.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "cfd/navier_stokes/poisson_hypre.hpp"
 
 #include <algorithm>
@@ -197,7 +198,8 @@ Simulation::~Simulation() = default;
 const Grid& Simulation::grid() const { return impl_->solver.grid(); }
 const Solver& Simulation::solver() const { return impl_->solver; }
 double Simulation::time() const { return impl_->solver.time(); }
-std::size_t Simulation::cells() const { return grid().cells(); }
+std::size_t Simulation::cells() const { return impl_->solver.whole_grid().cells(); }
+const Grid& Simulation::whole_grid() const { return impl_->solver.whole_grid(); }
 std::size_t Simulation::bytes() const { return impl_->solver.bytes() + (impl_->ib ? impl_->ib->bytes() : 0); }
 bool Simulation::has_bodies() const { return impl_->ib.has_value(); }
 const ImmersedBoundary* Simulation::immersed() const { return impl_->ib ? &*impl_->ib : nullptr; }
@@ -231,7 +233,8 @@ double Simulation::part_volume(int part, Vec3* centroid) const {
   return c->volume;
 }
 
-void Simulation::restore(const SimulationState& s, const BodyMotion& state_motion) {
+void Simulation::restore(const SimulationState& whole_or_slab, const BodyMotion& state_motion) {
+  const SimulationState s = own_planes(whole_or_slab, impl_->solver);
   const Shape sh = grid().shape();
   if (!(s.u[0].shape() == sh))
     throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
@@ -252,7 +255,8 @@ void Simulation::restore(const SimulationState& s, const BodyMotion& state_motio
   restore(t);
 }
 
-void Simulation::restore(const SimulationState& s) {
+void Simulation::restore(const SimulationState& whole_or_slab) {
+  const SimulationState s = own_planes(whole_or_slab, impl_->solver);
   const Shape sh = grid().shape();
   if (!(s.u[0].shape() == sh))
     throw std::invalid_argument("Simulation::restore: the state's grid shape differs from the simulation's");
@@ -276,6 +280,11 @@ SimulationState Simulation::state() const {
   s.phi = sv.pressure_increments();
   s.guess = sv.has_guess();
   return s;
+}
+
+SimulationState Simulation::whole_state() const {
+  if (!impl_->solver.decomposition().distributed()) return state();
+  return gather_state(impl_->solver, step_, dt_last_);
 }
 
 StepReport Simulation::advance() {
@@ -303,8 +312,20 @@ StepReport Simulation::advance() {
   if (!(r.cfl <= rk3_cfl_limit)) {
     // Where: the cell and its distance from the domain's faces, so that a blow-up at an outflow face is told from
     // one at a wing.
-    const Grid& g = m.solver.grid();
-    const RateLocation at = max_rate_location(g, m.solver.velocity());
+    const Grid& g = m.solver.whole_grid();
+    RateLocation at = max_rate_location(m.solver.grid(), m.solver.velocity());
+    at.k += m.solver.slab().offset;  // in the whole grid
+    if (const Decomposition& D = m.solver.decomposition(); D.distributed()) {
+      // the rank with the largest rate (the lowest of equal ones) tells where it is
+      const double top = D.max(at.rate);
+      const int owner = -int(D.max(at.rate == top ? -double(D.rank()) : -double(D.size())));
+      double where[6] = {double(at.i), double(at.j), double(at.k), at.centre.x(), at.centre.y(), at.centre.z()};
+      if (D.rank() != owner) std::fill(where, where + 6, 0.0);
+      D.sum(where, 6);
+      at.i = int(where[0]), at.j = int(where[1]), at.k = int(where[2]);
+      at.centre = Vec3(where[3], where[4], where[5]);
+      at.rate = top;
+    }
     static const char* faces[6] = {"x-", "x+", "y-", "y+", "z-", "z+"};
     int nearest = 0, cells = 1 << 30;
     for (int a = 0; a < 3; ++a) {
@@ -332,7 +353,14 @@ TriangleMesh Simulation::surface(int part) const {
 
 std::vector<double> Simulation::solid_mask() const {
   if (!impl_->ib) return std::vector<double>(grid().cells(), 0.0);
-  return impl_->ib->solid_mask(time());
+  std::vector<double> mask = impl_->ib->solid_mask(time());  // the hooks' window: the slab and its halo
+  const Solver& sv = impl_->solver;
+  if (&sv.hook_grid() == &sv.grid()) return mask;
+  const Shape sh = grid().shape();
+  const std::size_t plane = std::size_t(sh.nx) * std::size_t(sh.ny);
+  std::vector<double> own(grid().cells());
+  std::copy_n(mask.begin() + std::ptrdiff_t(plane * std::size_t(sv.hook_first_plane() - 1)), own.size(), own.begin());
+  return own;
 }
 
 SurfacePressure Simulation::surface_pressure(int part) const {

@@ -42,8 +42,8 @@ struct SimulationOptions {
     std::function<Vec3(double t)> rate{}, rate_rate{};
   } frame_rotation{};
   // The grid split over MPI ranks (decomposition.hpp): the solver and the immersed boundary run on this rank's
-  // slab, the loads are the whole insect's on every rank. Library use: the observers (files), state() and restore()
-  // stay the slab's, so a decomposed simulation is stepped and its loads read, not written to a run directory.
+  // slab, the loads are the whole insect's on every rank. state() is the slab's, whole_state() the whole grid's on
+  // rank 0; restore() takes either; run_cfd (CfdRunOptions::decomposition) writes a run directory from the ranks.
   std::shared_ptr<const Decomposition> decomposition{};
   // > 0: the pressure solves' relative tolerance instead of the solver's (1e-3). Two runs that must agree to
   // round-off (over ranks and on one) need a tight one: at 1e-3 a residual within round-off of its target can take
@@ -97,9 +97,14 @@ class Simulation {
   // (e.g. the kept hover state for a perturbed run) gets this run's far field at the state's time: the difference
   // of the two far fields, -dV - dOmega x r, is added to the velocity everywhere (the body's motion starts
   // impulsively; the pressure is left as it was, and the first projection makes it the new flow's).
+  // Over ranks the state may be the whole grid's (a checkpoint, whole_state()) on every rank, which keeps its
+  // planes, or this rank's slab's (state()).
   void restore(const SimulationState& state, const BodyMotion& state_motion);
   void restore(const SimulationState& state);
-  SimulationState state() const;
+  SimulationState state() const;  // this rank's slab (the whole grid on one rank)
+  // The whole grid's state on rank 0, gathered from the ranks (empty fields elsewhere); state() on one rank.
+  // Collective: every rank calls it.
+  SimulationState whole_state() const;
   // One time step; throws StepFailure.
   StepReport advance();
 
@@ -107,13 +112,14 @@ class Simulation {
   const Kinematics& kinematics() const { return kin_; }
   const BodyMotion& motion() const { return motion_; }
   const CfdPlan& plan() const { return plan_; }
-  const Grid& grid() const;
+  const Grid& grid() const;        // this rank's slab (the whole grid on one rank)
+  const Grid& whole_grid() const;  // the whole grid, whichever the ranks
   const Solver& solver() const;
   long step() const { return step_; }
   double time() const;
   double last_dt() const { return dt_last_; }
-  std::size_t cells() const;
-  std::size_t bytes() const;  // solver + immersed boundary
+  std::size_t cells() const;  // of the whole grid
+  std::size_t bytes() const;  // solver + immersed boundary (this rank's)
   bool has_bodies() const;
   // The loads at the current time (the last step's row; before any step, computed).
   CfdLoadRow loads() const;
@@ -141,7 +147,8 @@ class Simulation {
   double part_volume(int part, Vec3* centroid = nullptr) const;
   // The immersed boundary holding the parts (nullptr for a body-free simulation).
   const ImmersedBoundary* immersed() const;
-  // 1 in cells inside a part at the current time, else 0 (ImmersedBoundary::solid_mask; all 0 without bodies).
+  // 1 in cells inside a part at the current time, else 0 (ImmersedBoundary::solid_mask; all 0 without bodies): the
+  // cells of grid(), x fastest.
   std::vector<double> solid_mask() const;
 
  private:

@@ -10,19 +10,6 @@ namespace flapstab::ns {
 
 namespace {
 
-// Runs fn on rank 0; its exception's message, if any, is rethrown on every rank (the others would otherwise wait).
-template <class Fn>
-void on_root(const Decomposition& D, Fn&& fn) {
-  std::string error;
-  if (D.rank() == 0) try {
-      fn();
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  if (D.max(error.empty() ? 0.0 : 1.0) > 0)
-    throw std::runtime_error(D.rank() == 0 ? error : "navier_stokes: rank 0 failed to write (see its message)");
-}
-
 void copy_planes(const Field& whole, const Slab& sl, Field& local) {
   const Shape& s = local.shape();
   std::copy_n(whole.data() + whole.shape()(0, 0, sl.offset), s.size(), local.data());
@@ -59,6 +46,48 @@ void write_solver_checkpoint(const std::string& path, const Solver& s, long step
   on_root(s.decomposition(), [&] { write_state(path, st, values, text); });
 }
 
+SimulationState own_planes(const SimulationState& whole, const Solver& s) {
+  const Shape local = s.grid().shape(), sh = s.whole_grid().shape();
+  if (!s.decomposition().distributed() || !(whole.u[0].shape() == sh) || local == sh) return whole;
+  SimulationState r;
+  r.time = whole.time;
+  r.step = whole.step;
+  r.dt_last = whole.dt_last;
+  r.guess = whole.guess;
+  r.u = VectorField(local);
+  r.phi = VectorField(local);
+  r.p = Field(local);
+  for (int d = 0; d < 3; ++d) {
+    copy_planes(whole.u[d], s.slab(), r.u[d]);
+    if (whole.phi[d].shape() == whole.u[d].shape()) copy_planes(whole.phi[d], s.slab(), r.phi[d]);
+  }
+  copy_planes(whole.p, s.slab(), r.p);
+  return r;
+}
+
+std::vector<double> gather_cells(const Solver& s, const std::vector<double>& own) {
+  const Decomposition& D = s.decomposition();
+  if (!D.distributed()) return own;
+  const Shape ls = s.grid().shape();
+  if (own.size() != std::size_t(ls.nx) * std::size_t(ls.ny) * std::size_t(ls.nz))
+    throw std::invalid_argument("navier_stokes gather_cells: not the slab's cells");
+  Field local(ls), whole;
+  std::size_t n = 0;
+  for (int k = 1; k <= ls.nz; ++k)
+    for (int j = 1; j <= ls.ny; ++j)
+      for (int i = 1; i <= ls.nx; ++i) local(i, j, k) = real(own[n++]);
+  const Shape sh = s.whole_grid().shape();
+  if (D.rank() == 0) whole = Field(sh);
+  D.gather_field(local, s.slabs(), whole);
+  std::vector<double> out;
+  if (D.rank() != 0) return out;
+  out.reserve(sh.cells());
+  for (int k = 1; k <= sh.nz; ++k)
+    for (int j = 1; j <= sh.ny; ++j)
+      for (int i = 1; i <= sh.nx; ++i) out.push_back(double(whole(i, j, k)));
+  return out;
+}
+
 SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
   const CheckpointReader ck(path);
   const Shape whole = s.whole_grid().shape();
@@ -68,16 +97,8 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
                                                    std::size_t(whole.nx + 2)})
       throw InputError(path, name, "array of another grid's shape",
                        fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
-  SimulationState w = read_state(ck, whole);
-  const Shape local = s.grid().shape();
-  VectorField u(local), phi(local);
-  Field p(local);
-  for (int d = 0; d < 3; ++d) {
-    copy_planes(w.u[d], s.slab(), u[d]);
-    copy_planes(w.phi[d], s.slab(), phi[d]);
-  }
-  copy_planes(w.p, s.slab(), p);
-  s.restore(w.time, u, p, phi, w.guess);
+  const SimulationState w = own_planes(read_state(ck, whole), s);
+  s.restore(w.time, w.u, w.p, w.phi, w.guess);
   SimulationState r;
   r.time = w.time;
   r.step = w.step;
@@ -86,19 +107,23 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
   return r;
 }
 
-std::string write_solver_fields(FieldWriter* writer, const Solver& s, double density, long step) {
+void gather_flow(const Solver& s, VectorField& u, Field& p) {
   const Decomposition& D = s.decomposition();
-  const std::vector<Slab>& slabs = s.slabs();
-  const Grid& g = s.whole_grid();
-  const Shape sh = g.shape();
-  VectorField u;
-  Field p;
+  const Shape sh = s.whole_grid().shape();
   if (D.rank() == 0) {
     u = VectorField(sh);
     p = Field(sh);
   }
-  for (int d = 0; d < 3; ++d) D.gather_field(s.velocity()[d], slabs, u[d]);
-  D.gather_field(s.pressure(), slabs, p);
+  for (int d = 0; d < 3; ++d) D.gather_field(s.velocity()[d], s.slabs(), u[d]);
+  D.gather_field(s.pressure(), s.slabs(), p);
+}
+
+std::string write_solver_fields(FieldWriter* writer, const Solver& s, double density, long step) {
+  const Decomposition& D = s.decomposition();
+  const Grid& g = s.whole_grid();
+  VectorField u;
+  Field p;
+  gather_flow(s, u, p);
   std::string out;
   on_root(D, [&] {
     if (!writer) throw std::invalid_argument("navier_stokes fields: rank 0 needs a field writer");

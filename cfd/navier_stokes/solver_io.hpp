@@ -6,6 +6,7 @@
 #pragma once
 #include <map>
 #include <string>
+#include <vector>
 #include "cfd/navier_stokes/io_hdf5.hpp"
 #include "cfd/navier_stokes/simulation.hpp"
 #include "cfd/navier_stokes/solver.hpp"
@@ -15,6 +16,18 @@ namespace flapstab::ns {
 // The solver's state on the whole grid, on rank 0 (elsewhere the fields are empty): velocity, pressure, the Poisson
 // initial guesses, time, and the given step counter and last step.
 SimulationState gather_state(const Solver& s, long step, double dt_last);
+
+// The planes of this rank's slab (ghost planes included) of a whole-grid state, or the state itself when its fields
+// are not the whole grid's or there is one rank.
+SimulationState own_planes(const SimulationState& whole, const Solver& s);
+
+// Cells of this rank's slab (x fastest, nx * ny * n values) gathered into the whole grid's cells on rank 0 (empty
+// elsewhere). Collective.
+std::vector<double> gather_cells(const Solver& s, const std::vector<double>& own);
+
+// The velocity and pressure of the whole grid gathered on rank 0 (u and p are set there, left empty elsewhere).
+// Collective.
+void gather_flow(const Solver& s, VectorField& u, Field& p);
 
 // Writes the whole state as a checkpoint (write_state: arrays u0 u1 u2 p phi0 phi1 phi2 bit for bit); rank 0 writes,
 // and an error there (a directory that cannot be written) is thrown on every rank.

@@ -11,6 +11,7 @@
 #include <mpi.h>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -22,6 +23,7 @@
 #include "common/case_text.hpp"
 #include "core/case_file.hpp"
 #include "cfd/navier_stokes/observers.hpp"
+#include "cfd/navier_stokes/run.hpp"
 #include "cfd/navier_stokes/solver.hpp"
 #include "cfd/navier_stokes/solver_io.hpp"
 #include "core/errors.hpp"
@@ -430,14 +432,18 @@ TEST(Decomposition, ImmersedSphereLoadsMatchTheSingleRankOnes) {
 // The flapping test moth (tests/common/case_text.hpp, the CFD planform) on a coarse grid, ten steps of its wingbeat
 // from rest: body and both wings through the Simulation, the grid split over the ranks. Every part's loads equal the
 // single rank's to round-off.
-TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
+Case moth_case(const std::string& extra_keys = "") {
   const std::string keys =
       "cells_per_chord = 5\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
-      "below_R = 0\nsteps_per_cycle = 80\nthreads = 1\n";
-  const Case c = flapstab::load_case(flapstab::testing::write_temp(
+      "below_R = 0\nsteps_per_cycle = 80\nthreads = 1\n" + extra_keys;
+  return flapstab::load_case(flapstab::testing::write_temp(
       "mpi_moth_" + std::to_string(world()->rank()) + ".toml",
       flapstab::testing::replace(flapstab::testing::valid_cfd_case_text(), "[trim]\n",
                                  "[aero.cfd]\n" + keys + "\n[trim]\n")));
+}
+
+TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
+  const Case c = moth_case();
   const CfdPlan plan = plan_cfd(c, c.kinematics, BodyMotion{});
   // Pressure solves to 1e-10: at the default 1e-3 one side can take one more iteration where a residual lies within
   // round-off of its target, and the loads then differ by about 1e-9 of their scale (measured), not round-off.
@@ -463,6 +469,92 @@ TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
                 "of %d planes\n",
                 plan_grid(plan).shape().nx, plan_grid(plan).shape().ny, plan_grid(plan).shape().nz, df, f,
                 part.solver().slab().n);
+}
+
+// flapstab cfd's run over the ranks (run_cfd with a decomposition): the files in its directory are those of the
+// same run in one process, to round-off: forces.csv, the checkpoint, the field file (with the solid mask), the
+// surfaces, run.json. The run over the ranks stops after 6 steps and is restarted from its checkpoint for 4 more; the
+// one-process run makes its 10 steps at once.
+TEST(Decomposition, CfdRunOverRanksWritesTheOneProcessRunsFiles) {
+  namespace fs = std::filesystem;
+  const Case c = moth_case("fields_per_cycle = 40\nsurfaces_per_cycle = 40\ncheckpoints_per_cycle = 8\n"
+                           "field_precision = \"float64\"\n");
+  const std::string ranks = shared_path("run"), one = own_path("run_one");
+  if (world()->rank() == 0) fs::remove_all(ranks);
+  fs::remove_all(one);
+  CfdRunOptions o;
+  o.pressure_rtol = 1e-10;  // as FlappingInsectLoadsMatchTheSingleRankOnes: round-off needs converged solves
+  o.handle_signals = false;
+  o.directory = one;
+  o.steps = 10;
+  const CfdResult r1 = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  o.directory = ranks;
+  o.decomposition = world();
+  o.steps = 6;
+  MPI_Barrier(MPI_COMM_WORLD);  // rank 0 has cleared the directory
+  const CfdResult a = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  EXPECT_EQ(a.steps, 6);
+  o.restart = true;
+  o.steps = 4;
+  const CfdResult r = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  EXPECT_EQ(r.start_step, 6);
+  EXPECT_EQ(r.steps, 10);
+  EXPECT_EQ(r.cells, r1.cells);  // the whole grid's
+  EXPECT_EQ(r.status, "stopped");
+  if (world()->rank() != 0) return;
+  // forces.csv: every row and column
+  const int parts = 3;
+  ForcesCsv fa("", parts), fb("", parts);
+  fa.keep_earlier(ranks + "/forces.csv", 10);
+  fb.keep_earlier(one + "/forces.csv", 10);
+  double df = 0, f = 0;
+  for (std::size_t n = 0; n < 10; ++n)
+    for (int i = 0; i < parts; ++i) {
+      const flapstab::Wrench wa = fa.earlier()[n].part[i].wrench(), wb = fb.earlier()[n].part[i].wrench();
+      df = std::max({df, (wa.force - wb.force).norm(), (wa.moment - wb.moment).norm() / c.insect.wing.length});
+      f = std::max(f, wb.force.norm());
+    }
+  EXPECT_GT(f, 0);
+  EXPECT_LE(df, 1e-10 * f) << "forces.csv";
+  // the checkpoint of step 10 (the stop's), the whole grid's
+  const Shape whole = plan_grid(r1.plan).shape();
+  const SimulationState sa = read_state(CheckpointReader(ranks + "/checkpoints/checkpoint_000000010.h5"), whole);
+  const SimulationState sb = read_state(CheckpointReader(one + "/checkpoints/checkpoint_000000010.h5"), whole);
+  const Slab all{0, whole.nz};
+  double du = 0, scale = 0;
+  for (int d = 0; d < 3; ++d) {
+    const Difference e = compare(sa.u[d], sb.u[d], all);
+    du = std::max(du, e.max);
+    scale = std::max(scale, e.scale);
+  }
+  EXPECT_LE(du, 1e-10 * scale) << "checkpoint velocity";
+  EXPECT_EQ(sa.step, 10);
+  EXPECT_EQ(CheckpointReader(ranks + "/checkpoints/checkpoint_000000010.h5").header().values.at("ranks"),
+            world()->size());
+  // the last field file (step 10) and the solid mask in it; the surfaces' files
+  for (const char* name : {"velocity", "pressure", "solid"}) {
+    const StoredField x = read_field(ranks + "/fields/fields_000010.h5", name),
+                      y = read_field(one + "/fields/fields_000010.h5", name);
+    ASSERT_EQ(x.values.size(), y.values.size()) << name;
+    double diff = 0, big = 0;
+    for (std::size_t n = 0; n < x.values.size(); ++n) {
+      diff = std::max(diff, std::abs(x.values[n] - y.values[n]));
+      big = std::max(big, std::abs(y.values[n]));
+    }
+    EXPECT_GT(big, 0) << name;
+    EXPECT_LE(diff, 1e-9 * big) << name;
+  }
+  auto listing = [](const std::string& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  EXPECT_EQ(listing(ranks + "/surfaces"), listing(one + "/surfaces"));
+  EXPECT_EQ(listing(ranks + "/fields"), listing(one + "/fields"));
+  std::printf("[ rank 0 ] flapstab cfd's run over %d ranks (6 steps, restart, 4 steps) against one process: "
+              "forces.csv %.3g of %.3g N, checkpoint velocity %.3g of %.3g\n",
+              world()->size(), df, f, du, scale);
 }
 
 TEST(Decomposition, ImmersedBodiesNeedAWalledZAxisAndThickSlabs) {
