@@ -136,7 +136,8 @@ class ImmersedBoundary final : public StageHooks {
   void attach(Solver& solver);
 
   void after_predictor(VectorField& ustar, double t, double alpha_dt) override;
-  void after_projection(VectorField& u, Field& p, double t) override;
+  void after_projection(VectorField& u, Field& p, double t) override;  // extends p into the parts; u unread
+  bool reads_projected_velocity() const override { return false; }
 
   // Loads at the solver's current time, about `moment_point` (grid axes, m); viscosity from the solver.
   std::vector<PartLoads> loads(const Solver& solver, const Vec3& moment_point) const;

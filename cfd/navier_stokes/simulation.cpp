@@ -145,6 +145,7 @@ struct Simulation::Impl : StageHooks {
     ib->after_predictor(ustar, t, alpha_dt);
   }
   void after_projection(VectorField& u, Field& p, double t) override { ib->after_projection(u, p, t); }
+  bool reads_projected_velocity() const override { return ib->reads_projected_velocity(); }
 
   CfdLoadRow compute_row(double period, long step) const {
     CfdLoadRow r;

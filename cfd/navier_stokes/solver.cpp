@@ -300,16 +300,19 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   fill_velocity_ghosts(u_, bc_, t_stage, &grid_);
   dec_->exchange(p_, slab_);
   exchange(u_);
-  after_projection(t_stage);
+  after_projection(t_stage, stage_ == 2);
 }
 
-void Solver::after_projection(double t) {
+void Solver::after_projection(double t, bool read_after) {
   if (!windowed()) {
     if (hooks_) hooks_->after_projection(u_, p_, t);
     return;
   }
   if (!hooks_) return;  // a flow without bodies needs no window
-  refresh_window();  // also what hook_velocity() gives the loads
+  // the velocity window: what the hook reads, or what hook_velocity() gives the loads after the step
+  if (read_after || hooks_->reads_projected_velocity())
+    for (int d = 0; d < 3; ++d) widen(u_[d], wu_[d]);
+  widen(p_, wp_);
   hooks_->after_projection(wu_, wp_, t);
   keep_own(wp_, p_);
   fill_ghosts(p_, pbc_);
@@ -347,7 +350,7 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
   dec_->exchange(p_, slab_);
   exchange(u_);
-  after_projection(t_);
+  after_projection(t_, true);
 }
 
 std::size_t Solver::bytes() const {

@@ -68,6 +68,10 @@ class StageHooks {
   // u, p: projected velocity and updated pressure at stage time t with box ghosts filled; ghost-cell values for
   // the next stage's stencils and surface forces go here.
   virtual void after_projection(VectorField& u, Field& p, double t) = 0;
+  // Whether after_projection reads u. Over ranks the hooks work on a window filled from the neighbours; a hook that
+  // reads only p (the immersed boundary) saves the velocity window's refresh after the first two stages of a step
+  // (the loads after the step read it, and it is refreshed after the last stage).
+  virtual bool reads_projected_velocity() const { return true; }
 };
 
 class Solver {
@@ -135,7 +139,9 @@ class Solver {
 
  private:
   void stage(double dt, const StageCoefficients& c, double t_stage);
-  void after_projection(double t);  // the hooks' after_projection (on the window over ranks)
+  // The hooks' after_projection (on the window over ranks); read_after: the velocity is read before the next stage
+  // (the loads after a step's last stage, or after a restore).
+  void after_projection(double t, bool read_after);
   double time_step(double conv) const;
   void relax(VectorField& ustar, double alpha_dt, double t) const;  // the sponge layer's implicit relaxation
   // fn(flat index, sigma, u_far) at every unknown of component d in a layer; u_far with the frame rate `rate`
