@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <vector>
 #include "bench/flapping_case.hpp"
 #include "cfd/navier_stokes/solver.hpp"
 
@@ -64,13 +65,24 @@ int main(int argc, char** argv) {
   Vec3 force = Vec3::Zero();
   if (moth)
     for (const PartLoads& l : f->ib->exchange_loads(s, Vec3::Zero())) force += l.force();
+  // Every rank's time in communication per step (transfers and waits: a rank that waits for a slower one
+  // shows the imbalance).
+  std::vector<double> comm(std::size_t(dec->size()));
+  const double mine = (after.seconds - before.seconds) / steps;
+  MPI_Gather(&mine, 1, MPI_DOUBLE, comm.data(), 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  std::string comm_text;
+  for (double c : comm) {
+    if (!comm_text.empty()) comm_text += ' ';
+    comm_text += std::to_string(int(std::lround(1e3 * c)));
+  }
   const std::string label = moth ? "hawkmoth " + std::to_string(g.shape().nx) + "x" + std::to_string(g.shape().ny) +
                                        "x" + std::to_string(g.shape().nz)
                                  : std::to_string(n) + "^3";
   if (dec->rank() == 0)
     std::printf("ranks %d threads %d cells %s steps %d: %.1f ns per cell step (whole grid), %.2f s, %.2f pressure "
                 "iterations per step, kinetic energy %.12e%s; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
-                "%.1f gathers, %.1f reductions; slab of %d planes\n",
+                "%.1f gathers, %.1f reductions; slab of %d planes; ms per step in communication, by rank: %s "
+                "(of %.0f)\n",
                 dec->size(), omp_get_max_threads(), label.c_str(), steps, seconds * 1e9 / (double(steps) * g.cells()),
                 seconds,
                 double(cycles) / steps, energy,
@@ -79,7 +91,8 @@ int main(int argc, char** argv) {
                      : "",
                 double(after.exchanges - before.exchanges) / steps,
                 (after.bytes - before.bytes) / steps, double(after.gathers - before.gathers) / steps,
-                double(after.reductions - before.reductions) / steps, s.slab().n);
+                double(after.reductions - before.reductions) / steps, s.slab().n, comm_text.c_str(),
+                1e3 * seconds / steps);
   MPI_Finalize();
   return 0;
 }

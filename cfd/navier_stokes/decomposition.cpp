@@ -121,10 +121,20 @@ MPI_Datatype type<double>() { return MPI_DOUBLE; }
 template <>
 MPI_Datatype type<float>() { return MPI_FLOAT; }
 
+// Adds the wall time of a communication (its transfer, and the wait for a neighbour that is not there yet) to
+// Traffic::seconds.
+struct Timed {
+  double& total;
+  double start = MPI_Wtime();
+  explicit Timed(double& t) : total(t) {}
+  ~Timed() { total += MPI_Wtime() - start; }
+};
+
 template <class T>
 void exchange_planes(MPI_Comm comm, int rank, int size, T* x, const Shape& s, const Slab& sl,
                      Decomposition::Traffic& traffic) {
   if (size < 2 || !(sl.cut_lo || sl.cut_hi)) return;
+  const Timed timed(traffic.seconds);
   ++traffic.exchanges;
   traffic.bytes += double(s.sz) * sizeof(T) * ((sl.cut_lo ? 1 : 0) + (sl.cut_hi ? 1 : 0));
   const int lower = sl.cut_lo ? (rank + size - 1) % size : MPI_PROC_NULL;
@@ -151,6 +161,7 @@ void Decomposition::gather_planes(float* x, const Shape& whole, const std::vecto
     counts[std::size_t(r)] = int(whole.sz) * slabs[std::size_t(r)].n;
     displs[std::size_t(r)] = int(whole(0, 0, slabs[std::size_t(r)].offset + 1));
   }
+  const Timed timed(traffic_.seconds);
   ++traffic_.gathers;
   traffic_.bytes += double(counts[std::size_t(rank_)]) * sizeof(float) * (size_ - 1);
   MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, x, counts.data(), displs.data(), MPI_FLOAT, comm_->comm);
@@ -171,6 +182,7 @@ void Decomposition::gather_field(const Field& local, const std::vector<Slab>& sl
     displs[std::size_t(r)] = plane * (sl.offset + first);
   }
   const int first = rank_ == 0 ? 0 : 1;
+  const Timed timed(traffic_.seconds);
   ++traffic_.gathers;
   traffic_.bytes += double(counts[std::size_t(rank_)]) * sizeof(double);
   MPI_Gatherv(local.data() + s(0, 0, first), counts[std::size_t(rank_)], MPI_DOUBLE,
@@ -189,6 +201,7 @@ void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& 
   const Shape& ws = window.shape();
   // Upwards: my planes n - depth .. n to the upper neighbour's window planes 0 .. depth; downwards: my planes
   // 1 .. depth + 1 to the lower one's planes above its own.
+  const Timed timed(traffic_.seconds);
   ++traffic_.exchanges;
   traffic_.bytes += double(count) * sizeof(double) * ((sl.cut_lo ? 1 : 0) + (sl.cut_hi ? 1 : 0));
   MPI_Sendrecv(local.data() + s(0, 0, s.nz - depth), sl.cut_hi ? count : 0, MPI_DOUBLE, upper, 21, w,
@@ -200,6 +213,7 @@ void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& 
 
 double Decomposition::sum(double v) const {
   if (comm_ && size_ > 1) {
+    const Timed timed(traffic_.seconds);
     ++traffic_.reductions;
     MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, comm_->comm);
   }
@@ -207,12 +221,14 @@ double Decomposition::sum(double v) const {
 }
 void Decomposition::sum(double* v, int n) const {
   if (comm_ && size_ > 1) {
+    const Timed timed(traffic_.seconds);
     ++traffic_.reductions;
     MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, comm_->comm);
   }
 }
 double Decomposition::max(double v) const {
   if (comm_ && size_ > 1) {
+    const Timed timed(traffic_.seconds);
     ++traffic_.reductions;
     MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, comm_->comm);
   }

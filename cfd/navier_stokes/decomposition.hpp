@@ -75,10 +75,12 @@ class Decomposition {
   double max(double v) const;
 
   // What this rank has communicated since construction (for the cost model in docs/theory/scale-out.md): ghost
-  // exchanges (each one or two plane messages), the bytes it sent in them and in gathers, and all-reductions.
+  // exchanges (each one or two plane messages), the bytes it sent in them and in gathers, all-reductions, and the
+  // wall time spent in them (the transfers, and waiting for a neighbour still computing: the load imbalance).
   struct Traffic {
     long exchanges = 0, gathers = 0, reductions = 0;
     double bytes = 0;
+    double seconds = 0;
   };
   const Traffic& traffic() const { return traffic_; }
 
