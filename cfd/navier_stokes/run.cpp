@@ -15,6 +15,7 @@
 #include <toml++/toml.h>
 
 #include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
@@ -38,6 +39,29 @@ std::string case_hash(const std::string& path) {
 }
 
 namespace {
+
+// Over ranks: why the grid cannot be split into z slabs over `ranks` ranks ("" when it can): the slabs are whole
+// blocks of the multigrid's z unit, at least one block per rank, and with immersed bodies at least
+// Solver::hook_halo + 1 planes each.
+std::string split_problem(const Grid& g, int ranks, bool bodies) {
+  const int nz = g.axis[2].n;
+  int unit = 1;
+  try {
+    unit = Multigrid::z_unit(g, ranks);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  const int units = nz / unit;
+  if (units < ranks)
+    return fmt::format("its {} z planes are {} blocks of {} (the multigrid's alignment), fewer than the ranks", nz,
+                       units, unit);
+  const int thinnest = units / ranks * unit;
+  if (bodies && g.axis[2].periodic) return "immersed bodies over ranks need a z axis that is not periodic";
+  if (bodies && thinnest < Solver::hook_halo + 1)
+    return fmt::format("a rank would hold {} of its {} z planes, and the immersed boundary's window needs {} or more",
+                       thinnest, nz, Solver::hook_halo + 1);
+  return "";
+}
 
 void write_run_json(const std::string& path, const Case& c, const std::string& hash, const Simulation& sim,
                     const CfdResult& res) {
@@ -214,6 +238,21 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     }
   }
 
+  if (D.distributed()) {  // a grid too thin for the ranks: bad input, before anything is built
+    const Grid g = plan_grid(plan);
+    if (const std::string why = split_problem(g, D.size(), o.bodies); !why.empty()) {
+      int most = 1;
+      for (int r = D.size() - 1; r >= 2 && most == 1; --r)
+        if (split_problem(g, r, o.bodies).empty()) most = r;
+      throw InputError(c.path, "mpiexec -n",
+                       fmt::format("{} ranks cannot share this grid ({} x {} x {} cells, split along z): {}", D.size(),
+                                   g.axis[0].n, g.axis[1].n, g.axis[2].n, why),
+                       most > 1 ? fmt::format("at most {} ranks for this grid, or more z cells (a finer grid, a "
+                                              "taller domain)", most)
+                                : std::string("one process for this grid, or more z cells (a finer grid, a taller "
+                                              "domain)"));
+    }
+  }
   if (s.fpm.enabled && o.bodies) fpm::check_fpm_memory(plan, s.fpm, c.path);  // before anything large is allocated
   SimulationOptions so;
   so.bodies = o.bodies;
@@ -230,6 +269,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   res.cells = sim.cells();
   res.bytes = std::size_t(D.sum(double(sim.bytes())));  // all ranks' (collective: outside the rank-0-only log below)
   const std::size_t solver_bytes = std::size_t(D.sum(double(sim.solver().bytes())));
+  const double largest_rank_bytes = D.max(double(sim.bytes()));
   const double t_end = plan.cycles * plan.period;
   const long total_steps = plan.steps_per_cycle > 0 ? long(plan.cycles) * plan.steps_per_cycle : 0;
   const auto in_run = [&](long k, double t) {
@@ -255,6 +295,13 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                         plan.steps_per_cycle > 0 ? "" : "about ", long(std::ceil(steps_left_est)),
                         plan.steps_per_cycle > 0 ? fmt::format(" (dt = T/{} = {:.4g} s)", plan.steps_per_cycle, plan.dt)
                                                  : fmt::format(" (adaptive dt, CFL {})", s.cfl));
+    if (D.distributed()) {
+      std::string planes;
+      for (const Slab& sl : sim.solver().slabs()) planes += (planes.empty() ? "" : " + ") + std::to_string(sl.n);
+      *log << fmt::format("  over {} MPI ranks: z slabs of {} planes; {:.1f} MiB on the largest rank; rank 0 writes "
+                          "the files\n",
+                          D.size(), planes, largest_rank_bytes / 1048576.0);
+    }
     if (plan.sponge_width > 0)
       *log << fmt::format("  sponge layer {:.4g} m deep along every face, relaxing towards the far field at up to "
                           "{:.4g} /s ({:g} per wingbeat)\n",

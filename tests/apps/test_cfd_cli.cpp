@@ -208,6 +208,20 @@ TEST(CfdCli, ForcePartitioningOverRanksIsRefused) {
   EXPECT_EQ(occurrences(r.err, "flapstab: error"), 1) << r.err;  // rank 0's message only
   EXPECT_FALSE(fs::exists(dir));
 }
+
+// More ranks than the grid's z planes allow (each slab at least 5 planes for the immersed boundary's window, in whole
+// blocks of the multigrid's alignment): bad input naming the rank count it takes, before anything is written.
+TEST(CfdCli, MoreRanksThanTheGridTakesAreBadInput) {
+  const std::string path = write_temp("cfdcli_ranks_many.toml", with_cfd(tiny));
+  const fs::path dir = fs::path(path).parent_path() / "cfdcli_ranks_many";
+  fs::remove_all(dir);
+  const CfdRunOutput r = flapstab_cfd_ranks(8, path + " -o " + dir.string());
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("'mpiexec -n': 8 ranks cannot share this grid"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("at most"), std::string::npos) << r.err;
+  EXPECT_EQ(occurrences(r.err, "flapstab: error"), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir));
+}
 #endif
 
 TEST(CfdCli, DryRunPrintsTheEstimateAndWritesNothing) {
