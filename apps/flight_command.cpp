@@ -12,6 +12,7 @@
 #include "apps/plots.hpp"
 #include "apps/results_json.hpp"
 #include "cfd/aero_factory.hpp"
+#include "cfd/navier_stokes/decomposition.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "flight/free_flight.hpp"
@@ -104,7 +105,17 @@ int run_fly(const FlightCommandOptions& o) {
                        "the longitudinal mode moves u, w, q and theta, which the '" + dof_set_name(dofs) + "' set does not",
                        "dof = \"longitudinal\" or \"6dof\"");
   }
-  if (c.aero.model == "cfd") return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
+  if (c.aero.model == "cfd") {
+    // Copies started by mpiexec would each fly the same insect into the same directory (a free flight's flow is not
+    // decomposed over ranks yet: flapstab cfd's is).
+    if (const int n = ns::Decomposition::launched_processes(); n > 1)
+      throw InputError("mpiexec", "-n",
+                       fmt::format("flapstab fly with the CFD model runs in one process, and mpiexec started {} copies "
+                                   "of it (they would all fly the same insect into the same directory)",
+                                   n),
+                       "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS)");
+    return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
+  }
   const auto model = make_aero_model(c);
   const std::vector<TrimParameterSpec> actuators = controller_actuators(c);
 

@@ -85,6 +85,23 @@ TEST(CfdCli, RestartWithoutCheckpointsIsBadInput) {
   EXPECT_FALSE(fs::exists(dir));
 }
 
+// A CFD free flight started by mpiexec as several copies is refused before it writes anything (its flow is not
+// decomposed over ranks; the copies would fly the same insect into one directory); the launcher's process count is
+// read from its environment.
+TEST(CfdCli, FreeFlightCopiesUnderMpiexecAreRefused) {
+  const fs::path dir = fs::path(write_temp("cfdcli_fly_copies.txt", "")).parent_path() / "cfdcli_fly_copies";
+  fs::remove_all(dir);
+  const std::string err = write_temp("cfdcli_fly_copies_err.txt", "");
+  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + std::string(FLAPSTAB_BINARY) + " fly " + FLAPSTAB_SOURCE_DIR +
+                          "/data/examples/fly_hawkmoth_cfd.toml -o " + dir.string() + " > /dev/null 2> " + err;
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, 2) << text;
+  EXPECT_NE(text.find("mpiexec started 2 copies"), std::string::npos) << text;
+  EXPECT_FALSE(fs::exists(dir));
+}
+
 const char* tiny =
     "cells_per_chord = 4\nfine_margin_R = 0.4\nupstream_R = 0\ndownstream_R = 0\nlateral_R = 0\nabove_R = 0\n"
     "below_R = 0.5\nbody_divisions = 6\nwing_span_stations = 12\nwing_chord_divisions = 4\nthreads = 1\n";
