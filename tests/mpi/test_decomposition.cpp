@@ -118,6 +118,28 @@ TEST(Decomposition, SlabsAreWholeBlocksAndCoverTheAxis) {
   EXPECT_THROW(D.slabs(g.axis[2].n, g.axis[2].n, false), std::invalid_argument);  // one block for several ranks
 }
 
+// A failure of rank 0's part (a file it writes for all) becomes every rank's, of the same kind, so that no rank goes
+// on into a collective operation rank 0 has left; a success is every rank's too.
+TEST(Decomposition, RankZerosFailureIsEveryRanks) {
+  const Decomposition& D = *world();
+  int calls = 0;
+  on_root(D, [&] { ++calls; });
+  EXPECT_EQ(calls, D.rank() == 0 ? 1 : 0);
+  auto fail = [&](auto error) {
+    on_root(D, [&] { throw error; });
+  };
+  EXPECT_THROW(fail(flapstab::InputError("f.toml", "key", "bad")), flapstab::InputError);
+  EXPECT_THROW(fail(flapstab::OutputError("disk full")), flapstab::OutputError);
+  EXPECT_THROW(fail(flapstab::SolveError("diverged")), flapstab::SolveError);
+  EXPECT_THROW(fail(std::logic_error("bug")), RanksFailed);
+  try {
+    fail(flapstab::OutputError("disk full"));
+  } catch (const flapstab::OutputError& e) {  // rank 0 keeps its message; the others say whose it is
+    EXPECT_EQ(std::string(e.what()), D.rank() == 0 ? "disk full" : "rank 0 failed (its message says why)");
+  }
+  EXPECT_EQ(D.max(1.0), 1.0);  // and the ranks are still in step
+}
+
 TEST(Decomposition, VCycleIsBitForBitTheSingleRankOne) {
   for (bool periodic : {false, true}) {
     const Grid g = periodic ? Grid(Axis::uniform(-1, 1, 16, true), Axis::uniform(-1, 1, 24, true),
