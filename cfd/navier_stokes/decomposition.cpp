@@ -13,10 +13,46 @@ namespace flapstab::ns {
 #ifdef FLAPSTAB_HAVE_MPI
 struct Decomposition::Comm {
   MPI_Comm comm = MPI_COMM_WORLD;
+  bool owned = false;  // made by split(): freed with the decomposition (unless MPI has ended)
+  Comm() = default;
+  Comm(const Comm&) = delete;
+  Comm& operator=(const Comm&) = delete;
+  ~Comm() {
+    int finalised = 0;
+    MPI_Finalized(&finalised);
+    if (owned && !finalised) MPI_Comm_free(&comm);
+  }
 };
 #else
 struct Decomposition::Comm {};
 #endif
+
+const void* Decomposition::communicator() const {
+#ifdef FLAPSTAB_HAVE_MPI
+  return comm_ ? &comm_->comm : nullptr;
+#else
+  return nullptr;
+#endif
+}
+
+std::shared_ptr<const Decomposition> Decomposition::split(int per_group) const {
+  if (per_group < 1 || size_ % per_group != 0)
+    throw std::invalid_argument("navier_stokes decomposition: " + std::to_string(size_) +
+                                " ranks do not make groups of " + std::to_string(per_group));
+  auto d = std::make_shared<Decomposition>();
+  d->group_ = rank_ / per_group;
+  d->groups_ = size_ / per_group;
+#ifdef FLAPSTAB_HAVE_MPI
+  if (comm_) {
+    d->comm_ = std::make_unique<Comm>();
+    MPI_Comm_split(comm_->comm, d->group_, rank_, &d->comm_->comm);
+    d->comm_->owned = true;
+    MPI_Comm_rank(d->comm_->comm, &d->rank_);
+    MPI_Comm_size(d->comm_->comm, &d->size_);
+  }
+#endif
+  return d;
+}
 
 Decomposition::Decomposition() = default;
 Decomposition::~Decomposition() = default;
@@ -83,7 +119,7 @@ void Decomposition::abort(int status) const {
   int init = 0, finalised = 0;
   MPI_Initialized(&init);
   MPI_Finalized(&finalised);
-  if (init && !finalised) MPI_Abort(comm_ ? comm_->comm : MPI_COMM_WORLD, status);
+  if (init && !finalised) MPI_Abort(MPI_COMM_WORLD, status);  // the whole job, whichever group this rank is in
 #endif
   std::exit(status);
 }

@@ -37,13 +37,24 @@ class Decomposition {
   // (once; finalised at exit) and all of MPI_COMM_WORLD is returned; otherwise one rank without MPI. Throws
   // std::runtime_error for several processes when flapstab was built without MPI.
   static std::shared_ptr<const Decomposition> launched();
-  // Ends every rank's process at once with this exit status (MPI_Abort): for an error only some ranks met, while the
-  // others may wait in a collective operation. Without MPI: std::exit.
+  // Ends every process of the job at once with this exit status (MPI_Abort on MPI_COMM_WORLD): for an error only
+  // some ranks met, while the others may wait in a collective operation. Without MPI: std::exit.
   [[noreturn]] void abort(int status) const;
 
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool distributed() const { return size_ > 1; }
+
+  // This communicator's ranks in groups of `per_group` consecutive ranks, each group a decomposition of its own (its
+  // own ranks 0 .. per_group - 1, its own collective operations): for several flows at once in one job, a flow per
+  // group (a campaign's runs). The size must be a multiple of per_group (std::invalid_argument otherwise).
+  // Collective over this communicator.
+  std::shared_ptr<const Decomposition> split(int per_group) const;
+  int group() const { return group_; }    // which group of the communicator split() was called on (0 otherwise)
+  int groups() const { return groups_; }  // how many groups it made (1 otherwise)
+  // The MPI communicator (a pointer to an MPI_Comm; null for one rank without MPI), for libraries that take one
+  // (hypre).
+  const void* communicator() const;
 
   // The slabs of a z axis of `cells` cells split into whole `unit`s of planes, as evenly as possible (lower ranks
   // take the extra units); throws std::invalid_argument when there are fewer units than ranks.
@@ -88,7 +99,7 @@ class Decomposition {
   mutable Traffic traffic_;
   struct Comm;
   std::unique_ptr<Comm> comm_;
-  int rank_ = 0, size_ = 1;
+  int rank_ = 0, size_ = 1, group_ = 0, groups_ = 1;
 };
 
 // A failure every rank of a decomposed run met together (on_root), of no more particular kind.

@@ -78,7 +78,7 @@ PoissonStats Poisson::solve(Field& x, Field& b, const PoissonOptions& opt, bool 
     // hypre's PCG stops on the 2-norm of the volume-weighted residual; the max-norm target is checked here, and
     // the solve repeated from its result with a tolerance ten times tighter while it is missed (at most twice).
     if (!hypre_)
-      hypre_ = D.distributed() ? std::make_unique<HyprePoisson>(L_, &slab_, whole_nz_, z_periodic_)
+      hypre_ = D.distributed() ? std::make_unique<HyprePoisson>(L_, &slab_, whole_nz_, z_periodic_, D.communicator())
                                : std::make_unique<HyprePoisson>(L_);
     if (!guess) x.fill(0);
     Field dx(s);

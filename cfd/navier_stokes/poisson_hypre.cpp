@@ -65,7 +65,7 @@ struct HyprePoisson::Impl {
   }
 };
 
-HyprePoisson::HyprePoisson(const Stencil<real>& L, const Slab* slab, int whole_nz, bool z_periodic)
+HyprePoisson::HyprePoisson(const Stencil<real>& L, const Slab* slab, int whole_nz, bool z_periodic, const void* comm)
     : impl_(std::make_unique<Impl>()) {
   for (int a = 0; a < 3; ++a) {
     const bool periodic = a == 2 && slab ? z_periodic : L.periodic[a];
@@ -83,7 +83,7 @@ HyprePoisson::HyprePoisson(const Stencil<real>& L, const Slab* slab, int whole_n
   const int z0 = slab ? slab->offset : 0;
   m.lo[2] = 1 + z0;
   m.hi[0] = s.nx, m.hi[1] = s.ny, m.hi[2] = s.nz + z0;
-  m.comm = slab ? MPI_COMM_WORLD : MPI_COMM_SELF;
+  m.comm = !slab ? MPI_COMM_SELF : comm ? *static_cast<const MPI_Comm*>(comm) : MPI_COMM_WORLD;
   HYPRE_StructGridCreate(m.comm, 3, &m.grid);
   HYPRE_StructGridSetExtents(m.grid, m.lo, m.hi);
   int period[3] = {L.periodic[0] ? s.nx : 0, L.periodic[1] ? s.ny : 0,
@@ -169,7 +169,7 @@ int HyprePoisson::solve(Field& x, const Field& b, double rtol, int max_iteration
 
 bool hypre_available() { return false; }
 struct HyprePoisson::Impl {};
-HyprePoisson::HyprePoisson(const Stencil<real>&, const Slab*, int, bool) {
+HyprePoisson::HyprePoisson(const Stencil<real>&, const Slab*, int, bool, const void*) {
   throw std::invalid_argument("the hypre pressure solver is not built in (CMake did not find hypre and MPI: install "
                               "libhypre-dev and libopenmpi-dev and reconfigure)");
 }

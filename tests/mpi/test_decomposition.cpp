@@ -579,6 +579,47 @@ TEST(Decomposition, CfdRunOverRanksWritesTheOneProcessRunsFiles) {
               world()->size(), df, f, du, scale);
 }
 
+// Groups of ranks in one job, each running its own flow over its own ranks (Decomposition::split): with 4 ranks or
+// more two groups of 2, else groups of 1. Group 0 runs the flapping test moth with the project's multigrid, group 1
+// with hypre (whose grid must then live on the group's communicator, not the job's: on the job's it would wait for
+// the other group). Each group's loads equal its own flow's in one process.
+TEST(Decomposition, GroupsOfRanksRunTheirOwnFlows) {
+  const Decomposition& W = *world();
+  const int per_group = W.size() >= 4 && W.size() % 2 == 0 ? 2 : 1;
+  const std::shared_ptr<const Decomposition> group = W.split(per_group);
+  EXPECT_EQ(group->size(), per_group);
+  EXPECT_EQ(group->groups(), W.size() / per_group);
+  EXPECT_EQ(group->group(), W.rank() / per_group);
+  EXPECT_EQ(group->rank(), W.rank() % per_group);
+  EXPECT_THROW(W.split(W.size() + 1), std::invalid_argument);
+  const bool hypre = group->group() % 2 == 1;
+  if (hypre && !hypre_available()) GTEST_SKIP() << "built without hypre";
+  const Case c = moth_case(hypre ? "pressure_solver = \"hypre\"\n" : "");
+  const CfdPlan plan = plan_cfd(c, c.kinematics, BodyMotion{});
+  SimulationOptions one;
+  one.pressure_rtol = 1e-10;
+  SimulationOptions split = one;
+  split.decomposition = group;
+  Simulation alone(c, c.kinematics, BodyMotion{}, plan, one);
+  Simulation part(c, c.kinematics, BodyMotion{}, plan, split);
+  double df = 0, f = 0;
+  for (int n = 0; n < 5; ++n) {
+    const StepReport a = alone.advance(), b = part.advance();
+    for (int i = 0; i < alone.part_count(); ++i) {
+      const flapstab::Wrench wa = a.row.part[i].wrench(), wb = b.row.part[i].wrench();
+      df = std::max({df, (wa.force - wb.force).norm(), (wa.moment - wb.moment).norm() / c.insect.wing.length});
+      f = std::max(f, wa.force.norm());
+    }
+  }
+  EXPECT_GT(f, 0);
+  // the multigrid: round-off (as FlappingInsectLoadsMatchTheSingleRankOnes); hypre over 2 ranks against hypre on one:
+  // the solves' tolerance 1e-10 (its smoother's planes are cut by the slabs), far above round-off
+  EXPECT_LE(df, (hypre ? 1e-8 : 1e-10) * f) << (hypre ? "hypre" : "multigrid");
+  if (group->rank() == 0)
+    std::printf("[ group %d of %d, %d rank(s), %s ] flapping moth, 5 steps: part loads differ by %.3g of %.3g N\n",
+                group->group(), group->groups(), group->size(), hypre ? "hypre" : "multigrid", df, f);
+}
+
 TEST(Decomposition, ImmersedBodiesNeedAWalledZAxisAndThickSlabs) {
   struct None : StageHooks {
     void after_predictor(VectorField&, double, double) override {}
