@@ -24,4 +24,5 @@ shift 2
 export OMP_NUM_THREADS=${SLURM_CPUS_PER_TASK:-1}
 flapstab=${FLAPSTAB:-flapstab}
 # shellcheck disable=SC2086  # the flags are words
-exec mpirun ${FLAPSTAB_MPIRUN_FLAGS:-} -n "${SLURM_NTASKS:-2}" --bind-to none "$flapstab" cfd "$case_file" -o "$out" "$@"
+exec mpirun ${FLAPSTAB_MPIRUN_FLAGS:-} -n "${SLURM_NTASKS:-2}" --bind-to none \
+  "$flapstab" cfd "$case_file" -o "$out" "$@"

@@ -26,9 +26,10 @@ struct CfdRunOutput {
   std::string out, err;
 };
 
-CfdRunOutput flapstab_cfd(const std::string& args) {
+// Runs `prefix flapstab cfd args` (prefix: an environment or a launcher), capturing its status and output.
+CfdRunOutput run_cfd_command_line(const std::string& prefix, const std::string& args) {
   const std::string errfile = write_temp("cfd_stderr.txt", ""), outfile = write_temp("cfd_stdout.txt", "");
-  const std::string cmd = std::string(FLAPSTAB_BINARY) + " cfd " + args + " > " + outfile + " 2> " + errfile;
+  const std::string cmd = prefix + FLAPSTAB_BINARY + " cfd " + args + " > " + outfile + " 2> " + errfile;
   const int rc = std::system(cmd.c_str());
   auto slurp = [](const std::string& p) {
     std::ifstream in(p);
@@ -38,6 +39,8 @@ CfdRunOutput flapstab_cfd(const std::string& args) {
   };
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(outfile), slurp(errfile)};
 }
+
+CfdRunOutput flapstab_cfd(const std::string& args) { return run_cfd_command_line("", args); }
 
 std::string with_cfd(const std::string& keys) {
   return replace(replace(testing::valid_cfd_case_text(), "model = \"quasi-steady\"", "model = \"cfd\""), "[trim]\n",
@@ -114,17 +117,7 @@ std::string mpiexec(int n) {
 }
 
 CfdRunOutput flapstab_cfd_ranks(int n, const std::string& args) {
-  const std::string errfile = write_temp("cfd_mpi_stderr.txt", ""), outfile = write_temp("cfd_mpi_stdout.txt", "");
-  const std::string cmd = "OMP_NUM_THREADS=1 " + mpiexec(n) + FLAPSTAB_BINARY + " cfd " + args + " > " + outfile +
-                          " 2> " + errfile;
-  const int rc = std::system(cmd.c_str());
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(outfile), slurp(errfile)};
+  return run_cfd_command_line("OMP_NUM_THREADS=1 " + mpiexec(n), args);
 }
 
 int occurrences(const std::string& s, const std::string& what) {
@@ -157,8 +150,8 @@ std::vector<std::vector<double>> csv_numbers(const fs::path& file, std::vector<s
 // process: the same forces.csv (to the pressure solves' tolerance), the same files, one report; its checkpoint
 // restarts on three ranks and on one process.
 TEST(CfdCli, OneFlowOverRanksUnderMpiexecIsTheOneProcessRun) {
-  const std::string path =
-      write_temp("cfdcli_ranks.toml", with_cfd(std::string(tiny) + "steps_per_cycle = 80\ncheckpoints_per_cycle = 8\n"));
+  const std::string keys = std::string(tiny) + "steps_per_cycle = 80\ncheckpoints_per_cycle = 8\n";
+  const std::string path = write_temp("cfdcli_ranks.toml", with_cfd(keys));
   const fs::path base = fs::path(path).parent_path();
   const fs::path one = base / "cfdcli_ranks_one", two = base / "cfdcli_ranks_two";
   fs::remove_all(one);

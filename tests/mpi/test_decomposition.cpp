@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include "cfd/navier_stokes/poisson.hpp"
 #include "cfd/navier_stokes/poisson_hypre.hpp"
 #include "cfd/navier_stokes/immersed.hpp"
@@ -464,6 +465,21 @@ Case moth_case(const std::string& extra_keys = "") {
                                  "[aero.cfd]\n" + keys + "\n[trim]\n")));
 }
 
+// Steps both simulations `steps` times: the largest difference of any part's force (and moment / wing length) and
+// the largest force.
+std::pair<double, double> load_difference(Simulation& a, Simulation& b, int steps, double length) {
+  double df = 0, f = 0;
+  for (int n = 0; n < steps; ++n) {
+    const StepReport ra = a.advance(), rb = b.advance();
+    for (int i = 0; i < a.part_count(); ++i) {
+      const flapstab::Wrench wa = ra.row.part[i].wrench(), wb = rb.row.part[i].wrench();
+      df = std::max({df, (wa.force - wb.force).norm(), (wa.moment - wb.moment).norm() / length});
+      f = std::max(f, wa.force.norm());
+    }
+  }
+  return {df, f};
+}
+
 TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
   const Case c = moth_case();
   const CfdPlan plan = plan_cfd(c, c.kinematics, BodyMotion{});
@@ -475,15 +491,7 @@ TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
   split.decomposition = world();
   Simulation whole(c, c.kinematics, BodyMotion{}, plan, tight);
   Simulation part(c, c.kinematics, BodyMotion{}, plan, split);
-  double df = 0, f = 0;
-  for (int n = 0; n < 10; ++n) {
-    const StepReport a = whole.advance(), b = part.advance();
-    for (int i = 0; i < whole.part_count(); ++i) {
-      const flapstab::Wrench wa = a.row.part[i].wrench(), wb = b.row.part[i].wrench();
-      df = std::max({df, (wa.force - wb.force).norm(), (wa.moment - wb.moment).norm() / c.insect.wing.length});
-      f = std::max(f, wa.force.norm());
-    }
-  }
+  const auto [df, f] = load_difference(whole, part, 10, c.insect.wing.length);
   EXPECT_GT(f, 0);
   EXPECT_LE(df, 1e-10 * f);
   if (world()->rank() == 0)
@@ -602,15 +610,7 @@ TEST(Decomposition, GroupsOfRanksRunTheirOwnFlows) {
   split.decomposition = group;
   Simulation alone(c, c.kinematics, BodyMotion{}, plan, one);
   Simulation part(c, c.kinematics, BodyMotion{}, plan, split);
-  double df = 0, f = 0;
-  for (int n = 0; n < 5; ++n) {
-    const StepReport a = alone.advance(), b = part.advance();
-    for (int i = 0; i < alone.part_count(); ++i) {
-      const flapstab::Wrench wa = a.row.part[i].wrench(), wb = b.row.part[i].wrench();
-      df = std::max({df, (wa.force - wb.force).norm(), (wa.moment - wb.moment).norm() / c.insect.wing.length});
-      f = std::max(f, wa.force.norm());
-    }
-  }
+  const auto [df, f] = load_difference(alone, part, 5, c.insect.wing.length);
   EXPECT_GT(f, 0);
   // the multigrid: round-off (as FlappingInsectLoadsMatchTheSingleRankOnes); hypre over 2 ranks against hypre on one:
   // the solves' tolerance 1e-10 (its smoother's planes are cut by the slabs), far above round-off
