@@ -4,7 +4,7 @@ extrapolated value with its grid-convergence index (Roache's GCI as set out by C
 130:078001: observed order from three grids of unequal refinement ratios, safety factor 1.25).
 
     python3 scripts/hover_grid_study.py CASE.toml OUT_DIR --grid 8:400 --grid 12:900 --grid 16:800 [--cycles 3]
-        [--flapstab ./build/apps/flapstab] [--threads 2]
+        [--flapstab ./build/apps/flapstab] [--threads 2] [--launcher "mpiexec -n 4"]
 
 Each --grid is CELLS_PER_CHORD:STEPS_PER_CYCLE. For each grid the case file is copied into OUT_DIR with
 [aero.cfd] cells_per_chord, steps_per_cycle and cycles replaced and fields and surfaces switched off, and run
@@ -12,6 +12,8 @@ with `flapstab cfd` (an interrupted study is resumed: a grid whose run.json says
 one with checkpoints is restarted). Then it prints, per grid, the mean lift (-F_z), F_x, pitch moment M_y about
 O and wing power over each wingbeat (from forces.csv), and for the last wingbeat of the three finest grids
 the observed order, the extrapolated value and the GCI of the finest grid. Exit status 2 for bad arguments.
+`--launcher` runs each grid's flow over MPI ranks (the command is put before `flapstab cfd`, e.g.
+"mpiexec -n 4"; threads per rank: --threads); a run interrupted on one rank count resumes on another.
 `--self-test` checks the extrapolation on values of a known order (the test suite runs it).
 """
 import argparse
@@ -20,6 +22,7 @@ import json
 import math
 import os
 import re
+import shlex
 import subprocess
 import sys
 
@@ -100,6 +103,7 @@ def main():
     ap.add_argument("--cycles", type=int, default=3)
     ap.add_argument("--flapstab", default="./build/apps/flapstab")
     ap.add_argument("--threads", type=int, default=0)
+    ap.add_argument("--launcher", default="", help='a command before flapstab cfd, e.g. "mpiexec -n 4"')
     a = ap.parse_args()
     try:
         grids = sorted(((float(g.split(":")[0]), int(g.split(":")[1])) for g in a.grid), reverse=True)
@@ -134,7 +138,7 @@ def main():
                 with open(case + ".tmp", "w") as f:
                     f.write(text)
                 os.replace(case + ".tmp", case)
-            cmd = [a.flapstab, "cfd", case, "-o", run]
+            cmd = shlex.split(a.launcher) + [a.flapstab, "cfd", case, "-o", run]
             if os.path.isdir(os.path.join(run, "checkpoints")):
                 cmd.append("--restart")
             print("running:", " ".join(cmd), flush=True)
