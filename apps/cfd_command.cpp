@@ -158,7 +158,6 @@ int run_cfd_process(const CfdCommandOptions& o, const std::shared_ptr<const ns::
   return 0;
 }
 
-
 }  // namespace
 
 int run_cfd_command(const CfdCommandOptions& o) {

@@ -4,7 +4,8 @@
 //    immersed boundary on each rank's window.
 // Rank 0 prints the whole-problem cost per cell and step, the pressure iterations per step and what each rank
 // communicated per step (exchanges, bytes, reductions), the figures of the cost model in docs/theory/scale-out.md,
-// and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
+// each rank's wall time in communication per step, the time the same messages take alone (every rank ready: the
+// transfers without the waits), and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
 // ranks, alternated, e.g.
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling 96 20
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling hawkmoth 20
@@ -75,6 +76,25 @@ int main(int argc, char** argv) {
     if (!comm_text.empty()) comm_text += ' ';
     comm_text += std::to_string(int(std::lround(1e3 * c)));
   }
+  // The transfers alone: rank 0's exchanges of one step replayed as messages of the step's mean size to a neighbour
+  // and back, every rank ready (no waiting for computation): the part of the communication time that moving the
+  // bytes costs.
+  double transfer = 0;
+  if (dec->size() > 1) {
+    const long messages = std::lround(double(after.exchanges - before.exchanges) / steps);
+    const double per_step = (after.bytes - before.bytes) / steps;
+    const std::size_t size = messages > 0 ? std::size_t(per_step / double(messages)) : 0;
+    std::vector<char> out(size, 1), in(size);
+    const int up = (dec->rank() + 1) % dec->size(), down = (dec->rank() + dec->size() - 1) % dec->size();
+    for (int rep = 0; rep < 4; ++rep) {  // the first as warm-up
+      MPI_Barrier(MPI_COMM_WORLD);
+      const double w0 = MPI_Wtime();
+      for (long m = 0; m < messages; ++m)
+        MPI_Sendrecv(out.data(), int(size), MPI_BYTE, m % 2 ? up : down, 7, in.data(), int(size), MPI_BYTE,
+                     m % 2 ? down : up, 7, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      if (rep > 0) transfer += (MPI_Wtime() - w0) / 3;
+    }
+  }
   const std::string label = moth ? "hawkmoth " + std::to_string(g.shape().nx) + "x" + std::to_string(g.shape().ny) +
                                        "x" + std::to_string(g.shape().nz)
                                  : std::to_string(n) + "^3";
@@ -82,7 +102,7 @@ int main(int argc, char** argv) {
     std::printf("ranks %d threads %d cells %s steps %d: %.1f ns per cell step (whole grid), %.2f s, %.2f pressure "
                 "iterations per step, kinetic energy %.12e%s; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
                 "%.1f gathers, %.1f reductions; slab of %d planes; ms per step in communication, by rank: %s "
-                "(of %.0f)\n",
+                "(of %.0f; the transfers alone %.1f)\n",
                 dec->size(), omp_get_max_threads(), label.c_str(), steps, seconds * 1e9 / (double(steps) * g.cells()),
                 seconds,
                 double(cycles) / steps, energy,
@@ -92,7 +112,7 @@ int main(int argc, char** argv) {
                 double(after.exchanges - before.exchanges) / steps,
                 (after.bytes - before.bytes) / steps, double(after.gathers - before.gathers) / steps,
                 double(after.reductions - before.reductions) / steps, s.slab().n, comm_text.c_str(),
-                1e3 * seconds / steps);
+                1e3 * seconds / steps, 1e3 * transfer);
   MPI_Finalize();
   return 0;
 }

@@ -1,5 +1,6 @@
 // Slabs along z over MPI ranks (see decomposition.hpp).
 #include "cfd/navier_stokes/decomposition.hpp"
+#include "cfd/navier_stokes/mpi_start.hpp"
 #include <algorithm>
 #include <cstdlib>
 #include <stdexcept>
@@ -93,25 +94,9 @@ int Decomposition::launched_processes() {
 std::shared_ptr<const Decomposition> Decomposition::launched() {
   if (launched_processes() <= 1) return std::make_shared<const Decomposition>();
 #ifdef FLAPSTAB_HAVE_MPI
-  static const bool started = [] {
-    int init = 0;
-    MPI_Initialized(&init);
-    if (!init) {  // (the hypre back end initialises MPI itself when it comes first, and checks as here)
-      int provided = 0;
-      MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-      std::atexit([] {
-        int finalised = 0;
-        MPI_Finalized(&finalised);
-        if (!finalised) MPI_Finalize();
-      });
-    }
-    return true;
-  }();
-  (void)started;
-  return world();
-#else
-  return world();  // throws: built without MPI
+  start_mpi();
 #endif
+  return world();  // (throws when built without MPI)
 }
 
 void Decomposition::abort(int status) const {
@@ -124,26 +109,26 @@ void Decomposition::abort(int status) const {
   std::exit(status);
 }
 
-std::vector<Slab> Decomposition::slabs(int cells, int unit, bool periodic) const {
+std::vector<Slab> Decomposition::slabs_of(int cells, int unit, int ranks, bool periodic) {
   if (unit < 1 || cells % unit != 0)
     throw std::invalid_argument("navier_stokes decomposition: " + std::to_string(cells) +
                                 " planes are not whole units of " + std::to_string(unit));
   const int units = cells / unit;
-  if (units < size_)
+  if (units < ranks)
     throw std::invalid_argument("navier_stokes decomposition: the z axis has " + std::to_string(cells) + " cells, " +
                                 std::to_string(units) + " blocks of " + std::to_string(unit) +
-                                " planes (the multigrid's alignment), fewer than the " + std::to_string(size_) +
+                                " planes (the multigrid's alignment), fewer than the " + std::to_string(ranks) +
                                 " ranks: use fewer ranks or more z cells");
-  std::vector<Slab> out(static_cast<std::size_t>(size_));
+  std::vector<Slab> out(static_cast<std::size_t>(ranks));
   int at = 0;
-  for (int r = 0; r < size_; ++r) {
-    const int u = units / size_ + (r < units % size_ ? 1 : 0);
+  for (int r = 0; r < ranks; ++r) {
+    const int u = units / ranks + (r < units % ranks ? 1 : 0);
     Slab& s = out[std::size_t(r)];
     s.offset = at;
     s.n = u * unit;
     at += s.n;
-    s.cut_lo = size_ > 1 && (periodic || r > 0);
-    s.cut_hi = size_ > 1 && (periodic || r + 1 < size_);
+    s.cut_lo = ranks > 1 && (periodic || r > 0);
+    s.cut_hi = ranks > 1 && (periodic || r + 1 < ranks);
   }
   return out;
 }

@@ -56,9 +56,10 @@ class Decomposition {
   // (hypre).
   const void* communicator() const;
 
-  // The slabs of a z axis of `cells` cells split into whole `unit`s of planes, as evenly as possible (lower ranks
-  // take the extra units); throws std::invalid_argument when there are fewer units than ranks.
-  std::vector<Slab> slabs(int cells, int unit, bool periodic) const;
+  // The slabs of a z axis of `cells` cells split into whole `unit`s of planes over `ranks` ranks, as evenly as
+  // possible (lower ranks take the extra units); throws std::invalid_argument when there are fewer units than ranks.
+  static std::vector<Slab> slabs_of(int cells, int unit, int ranks, bool periodic);
+  std::vector<Slab> slabs(int cells, int unit, bool periodic) const { return slabs_of(cells, unit, size_, periodic); }
   Slab slab(int cells, int unit, bool periodic) const { return slabs(cells, unit, periodic)[std::size_t(rank_)]; }
 
   // Ghost planes 0 and s.nz + 1 of a padded array on slab `sl`: plane 0 <- the lower neighbour's plane nz, plane

@@ -1,5 +1,6 @@
 // hypre back end of the pressure solver (poisson_hypre.hpp).
 #include "cfd/navier_stokes/poisson_hypre.hpp"
+#include "cfd/navier_stokes/mpi_start.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -11,7 +12,6 @@
 #include <mpi.h>
 #include <HYPRE_struct_ls.h>
 #include <HYPRE_utilities.h>
-#include <cstdlib>
 #endif
 
 namespace flapstab::ns {
@@ -21,20 +21,10 @@ namespace flapstab::ns {
 bool hypre_available() { return true; }
 
 namespace {
-// MPI and hypre once per process; finalised at exit when flapstab started them.
+// MPI (mpi_start.hpp) and hypre once per process.
 void start_hypre() {
   static const bool started = [] {
-    int initialised = 0;
-    MPI_Initialized(&initialised);
-    if (!initialised) {
-      int provided = 0;
-      MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-      std::atexit([] {
-        int finalised = 0;
-        MPI_Finalized(&finalised);
-        if (!finalised) MPI_Finalize();
-      });
-    }
+    start_mpi();
     HYPRE_Init();
     return true;
   }();

@@ -15,7 +15,6 @@
 #include <toml++/toml.h>
 
 #include "cfd/navier_stokes/io_hdf5.hpp"
-#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
@@ -39,29 +38,6 @@ std::string case_hash(const std::string& path) {
 }
 
 namespace {
-
-// Over ranks: why the grid cannot be split into z slabs over `ranks` ranks ("" when it can): the slabs are whole
-// blocks of the multigrid's z unit, at least one block per rank, and with immersed bodies at least
-// Solver::hook_halo + 1 planes each.
-std::string split_problem(const Grid& g, int ranks, bool bodies) {
-  const int nz = g.axis[2].n;
-  int unit = 1;
-  try {
-    unit = Multigrid::z_unit(g, ranks);
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  const int units = nz / unit;
-  if (units < ranks)
-    return fmt::format("its {} z planes are {} blocks of {} (the multigrid's alignment), fewer than the ranks", nz,
-                       units, unit);
-  const int thinnest = units / ranks * unit;
-  if (bodies && g.axis[2].periodic) return "immersed bodies over ranks need a z axis that is not periodic";
-  if (bodies && thinnest < Solver::hook_halo + 1)
-    return fmt::format("a rank would hold {} of its {} z planes, and the immersed boundary's window needs {} or more",
-                       thinnest, nz, Solver::hook_halo + 1);
-  return "";
-}
 
 void write_run_json(const std::string& path, const Case& c, const std::string& hash, const Simulation& sim,
                     const CfdResult& res) {
@@ -240,10 +216,10 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
 
   if (D.distributed()) {  // a grid too thin for the ranks: bad input, before anything is built
     const Grid g = plan_grid(plan);
-    if (const std::string why = split_problem(g, D.size(), o.bodies); !why.empty()) {
+    if (const std::string why = Solver::split_problem(g, D.size(), o.bodies); !why.empty()) {
       int most = 1;
       for (int r = D.size() - 1; r >= 2 && most == 1; --r)
-        if (split_problem(g, r, o.bodies).empty()) most = r;
+        if (Solver::split_problem(g, r, o.bodies).empty()) most = r;
       throw InputError(c.path, "mpiexec -n",
                        fmt::format("{} ranks cannot share this grid ({} x {} x {} cells, split along z): {}", D.size(),
                                    g.axis[0].n, g.axis[1].n, g.axis[2].n, why),

@@ -30,8 +30,7 @@ Solver::Solver(Grid grid, Boundaries bc, SolverOptions opt, std::shared_ptr<cons
                : std::vector<Slab>{slab_};
   // The hooks' window: hook_halo more planes at each cut (its fields come with the hooks). It needs a z axis that is
   // not periodic and neighbours of at least hook_halo + 1 planes; attach() refuses hooks otherwise.
-  windowed_ = dec_->distributed() && !grid.axis[2].periodic &&
-              std::all_of(slabs_.begin(), slabs_.end(), [](const Slab& s) { return s.n >= hook_halo + 1; });
+  windowed_ = dec_->distributed() && window_problem(slabs_, grid.axis[2].periodic).empty();
   if (windowed_) {
     const int lo = slab_.cut_lo ? hook_halo : 0, hi = slab_.cut_hi ? hook_halo : 0;
     window_grid_ = grid.slice_z(Slab{slab_.offset - lo, slab_.n + lo + hi, slab_.cut_lo, slab_.cut_hi});
@@ -180,16 +179,9 @@ void Solver::exchange(VectorField& u) const {
 }
 
 void Solver::attach(StageHooks* hooks) {
-  if (hooks && dec_->distributed()) {
-    if (whole_.axis[2].periodic)
-      throw std::invalid_argument("navier_stokes solver: immersed bodies over several MPI ranks need a z axis that is "
-                                  "not periodic");
-    for (const Slab& s : slabs_)
-      if (s.n < hook_halo + 1)
-        throw std::invalid_argument(fmt::format(
-            "navier_stokes solver: immersed bodies over MPI ranks need slabs of at least {} planes (a rank holds {}): "
-            "use fewer ranks or more z cells", hook_halo + 1, s.n));
-  }
+  if (hooks && dec_->distributed())
+    if (const std::string why = window_problem(slabs_, whole_.axis[2].periodic); !why.empty())
+      throw std::invalid_argument("navier_stokes solver: " + why + ": use fewer ranks or more z cells");
   hooks_ = hooks;
   if (hooks_ && windowed_) {  // the window's fields, allocated once and filled from the current state
     const Shape ws = window_grid_.shape();
@@ -199,6 +191,28 @@ void Solver::attach(StageHooks* hooks) {
       wflags_.assign(ws.size(), CellFlag::fluid);
     }
     refresh_window();
+  }
+}
+
+std::string Solver::window_problem(const std::vector<Slab>& slabs, bool z_periodic) {
+  if (slabs.size() < 2) return "";
+  if (z_periodic) return "immersed bodies over several MPI ranks need a z axis that is not periodic";
+  for (const Slab& s : slabs)
+    if (s.n < hook_halo + 1)
+      return fmt::format("immersed bodies over MPI ranks need slabs of at least {} planes (a rank would hold {} of "
+                         "the {})",
+                         hook_halo + 1, s.n, slabs.back().offset + slabs.back().n);
+  return "";
+}
+
+std::string Solver::split_problem(const Grid& whole, int ranks, bool hooks) {
+  if (ranks < 2) return "";
+  try {
+    const std::vector<Slab> slabs = Decomposition::slabs_of(whole.axis[2].n, Multigrid::z_unit(whole, ranks), ranks,
+                                                            whole.axis[2].periodic);
+    return hooks ? window_problem(slabs, whole.axis[2].periodic) : std::string();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
   }
 }
 

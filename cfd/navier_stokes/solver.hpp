@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 #include "cfd/navier_stokes/boundary.hpp"
 #include "cfd/navier_stokes/operators.hpp"
@@ -112,6 +113,12 @@ class Solver {
   // The grid and fields the hooks see (the slab's own on one rank; over ranks the window, whose fields exist while
   // hooks are attached), and the hook grid's planes this rank owns.
   static constexpr int hook_halo = 4;
+  // Why hooks cannot run on these slabs of the whole z axis ("" when they can): over several ranks their window needs
+  // a z axis that is not periodic and slabs of at least hook_halo + 1 planes.
+  static std::string window_problem(const std::vector<Slab>& slabs, bool z_periodic);
+  // Why `whole` cannot be split over `ranks` ranks, with hooks if `hooks` ("" when it can): the slabs are whole
+  // blocks of the multigrid's alignment (Multigrid::z_unit), at least one per rank, and fit the hooks' window.
+  static std::string split_problem(const Grid& whole, int ranks, bool hooks);
   const Grid& hook_grid() const { return windowed() ? window_grid_ : grid_; }
   const VectorField& hook_velocity() const { return windowed() ? wu_ : u_; }
   const Field& hook_pressure() const { return windowed() ? wp_ : p_; }

@@ -25,17 +25,9 @@ SimulationState gather_state(const Solver& s, long step, double dt_last) {
   st.step = step;
   st.dt_last = dt_last;
   st.guess = s.has_guess();
-  const Shape whole = s.whole_grid().shape();
-  if (D.rank() == 0) {
-    st.u = VectorField(whole);
-    st.phi = VectorField(whole);
-    st.p = Field(whole);
-  }
-  for (int d = 0; d < 3; ++d) {
-    D.gather_field(s.velocity()[d], slabs, st.u[d]);
-    D.gather_field(s.pressure_increments()[d], slabs, st.phi[d]);
-  }
-  D.gather_field(s.pressure(), slabs, st.p);
+  gather_flow(s, st.u, st.p);
+  if (D.rank() == 0) st.phi = VectorField(s.whole_grid().shape());
+  for (int d = 0; d < 3; ++d) D.gather_field(s.pressure_increments()[d], slabs, st.phi[d]);
   return st;
 }
 
@@ -65,7 +57,7 @@ SimulationState own_planes(const SimulationState& whole, const Solver& s) {
   return r;
 }
 
-std::vector<double> gather_cells(const Solver& s, const std::vector<double>& own) {
+std::vector<double> gather_cells(const Solver& s, std::vector<double> own) {
   const Decomposition& D = s.decomposition();
   if (!D.distributed()) return own;
   const Shape ls = s.grid().shape();

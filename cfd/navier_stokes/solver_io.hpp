@@ -23,7 +23,7 @@ SimulationState own_planes(const SimulationState& whole, const Solver& s);
 
 // Cells of this rank's slab (x fastest, nx * ny * n values) gathered into the whole grid's cells on rank 0 (empty
 // elsewhere). Collective.
-std::vector<double> gather_cells(const Solver& s, const std::vector<double>& own);
+std::vector<double> gather_cells(const Solver& s, std::vector<double> own);
 
 // The velocity and pressure of the whole grid gathered on rank 0 (u and p are set there, left empty elsewhere).
 // Collective.
