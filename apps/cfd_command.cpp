@@ -1,5 +1,6 @@
 // flapstab cfd: loads the case, runs cfd/navier_stokes/run, prints the result and plots the force history.
 #include "apps/cfd_command.hpp"
+#include "apps/over_ranks.hpp"
 #include "apps/commands.hpp"
 
 #include <cstdlib>
@@ -165,27 +166,7 @@ int run_cfd_command(const CfdCommandOptions& o) {
   // the run's files and speaks for all.
   const std::shared_ptr<const ns::Decomposition> dec = ns::Decomposition::launched();
   if (!dec->distributed()) return run_cfd_process(o, nullptr);
-  try {
-    return run_cfd_process(o, dec);
-  } catch (const InputError&) {  // met by every rank alike (the same input, or rank 0's failure made every rank's)
-    if (dec->rank() == 0) throw;
-    return 2;
-  } catch (const SolveError&) {
-    if (dec->rank() == 0) throw;
-    return 3;
-  } catch (const OutputError&) {
-    if (dec->rank() == 0) throw;
-    return 4;
-  } catch (const Interrupted& e) {
-    if (dec->rank() == 0) throw;
-    return 128 + e.signal();
-  } catch (const ns::RanksFailed&) {
-    if (dec->rank() == 0) throw;
-    return 1;
-  } catch (const std::exception& e) {  // perhaps this rank's alone, with the others waiting for it: end them all
-    fmt::print(stderr, "flapstab cfd (rank {} of {}): error: {}\n", dec->rank(), dec->size(), e.what());
-    dec->abort(1);
-  }
+  return run_over_ranks(*dec, "flapstab cfd", [&] { return run_cfd_process(o, dec); });
 }
 
 }  // namespace flapstab

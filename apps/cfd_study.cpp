@@ -246,7 +246,8 @@ PitchOscillationStudy pitch_oscillation_study(const ns::PitchOscillationResult& 
   return p;
 }
 
-CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
+CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log,
+                   std::shared_ptr<const ns::Decomposition> ranks) {
   const auto t0 = clock_type::now();
   CfdStudy s;
   auto stage = [&](const std::string& name, clock_type::time_point since, int runs) {
@@ -321,6 +322,7 @@ CfdStudy cfd_study(const Case& c, const std::string& cache, std::ostream* log) {
 
   // 3. CFD trim from the quasi-steady one.
   ns::CfdModel cfd(c, log, cache);
+  cfd.run_over(std::move(ranks));
   cfd.plan_for(trim_extreme_kinematics(c, s.qs_trim));
   t = clock_type::now();
   std::size_t before = 0;

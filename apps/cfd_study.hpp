@@ -89,7 +89,9 @@ struct CfdStudy {
 // The whole chain. `cache_directory` keeps the states and finished runs ("" = none: nothing resumable). Prints the
 // plan (runs, wingbeats, cells, estimated time) and progress on `log`. InputError before any CFD run for a
 // derivative step the periodic convergence cannot resolve (names derivatives.relative_step, with the numbers).
-CfdStudy cfd_study(const Case& c, const std::string& cache_directory, std::ostream* log);
+// `ranks`: every flow over these ranks (a group of an MPI job; CfdModel::run_over), the others' log null.
+CfdStudy cfd_study(const Case& c, const std::string& cache_directory, std::ostream* log,
+                   std::shared_ptr<const ns::Decomposition> ranks = {});
 
 // The plan's warning for a rate step (rad/s) that turns the body more than 5 deg per wingbeat (none below): the
 // turn per wingbeat, over max_cycles, and the relative_rate_step that gives 5 deg.

@@ -1,5 +1,7 @@
 // flapstab subcommands: trim-hover, derivatives, stability and analyze.
 #include "apps/commands.hpp"
+#include "apps/over_ranks.hpp"
+#include "cfd/navier_stokes/decomposition.hpp"
 
 #include <chrono>
 #include <iostream>
@@ -24,6 +26,25 @@
 namespace flapstab {
 
 namespace {
+
+// The ranks each CFD flow of the command runs over (--ranks-per-flow; null without), after checking that the case's
+// model is the CFD one.
+std::shared_ptr<const ns::Decomposition> flow_ranks(const CommandOptions& o, const Case& c) {
+  if (!o.flow_ranks) return nullptr;
+  if (c.aero.model != "cfd")
+    throw InputError(c.path, "aero.model",
+                     fmt::format("--ranks-per-flow {} splits the CFD model's flows over MPI ranks; this case's model "
+                                 "is '{}'", o.ranks_per_flow, c.aero.model),
+                     "model = \"cfd\" in [aero], or the command without --ranks-per-flow");
+  return o.flow_ranks;
+}
+
+// Whether this process speaks for its group of ranks (logs, prints and writes the command's files): rank 0 of a
+// --ranks-per-flow group, or a process alone.
+bool speaks(const CommandOptions& o) { return !o.flow_ranks || o.flow_ranks->rank() == 0; }
+
+// The log of the command's CFD model: stderr unless --quiet, on the process that speaks.
+std::ostream* cfd_log(const CommandOptions& o) { return o.quiet || !speaks(o) ? nullptr : &std::cerr; }
 
 // The CFD run cache of a command's output directory ("" without one).
 std::string cfd_cache(const CommandOptions& o, const Case& c) {
@@ -113,13 +134,16 @@ int run_trim_hover(const CommandOptions& o) {
     qc.aero.model = "quasi-steady";
     const auto qs = make_aero_model(qc);
     const TrimResult start = trimmed(qc, *qs);
-    ns::CfdModel cfd(c, o.quiet ? nullptr : &std::cerr, cfd_cache(o, c));
+    ns::CfdModel cfd(c, cfd_log(o), cfd_cache(o, c));
+    cfd.run_over(flow_ranks(o, c));
     cfd.plan_for(trim_extreme_kinematics(c, start));
     t = refine_trim(c, cfd, *qs, start, RefineSettings{c.aero.cfd.trim_tolerance, c.aero.cfd.trim_iterations},
-                    o.quiet ? nullptr : &std::cerr);
+                    cfd_log(o));
   } else {
+    flow_ranks(o, c);
     t = trimmed(c, *model);
   }
+  if (!speaks(o)) return 0;
   const double secs = seconds_since(t0);
   nlohmann::json j = metadata_json(c, "trim-hover");
   j["trim"] = trim_json(t);
@@ -141,14 +165,16 @@ int run_derivatives(const CommandOptions& o) {
   TrimResult t;
   DerivativeResult d;
   if (c.aero.model == "cfd") {
-    cfd = cfd_study(c, cfd_cache(o, c), o.quiet ? nullptr : &std::cerr);
+    cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), flow_ranks(o, c));
     t = cfd->trim;
     d = cfd->derivatives;
   } else {
+    flow_ranks(o, c);
     const auto model = make_aero_model(c);
     t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
   }
+  if (!speaks(o)) return 0;
   const double secs = seconds_since(t0);
   nlohmann::json j = metadata_json(c, "derivatives");
   j["trim"] = trim_json(t);
@@ -239,12 +265,13 @@ int run_stability(const CommandOptions& o) {
     refuse_no_trim_with_cfd(o, c);
     j = metadata_json(c, "stability");
     if (c.aero.model == "cfd") {
-      const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), o.quiet ? nullptr : &std::cerr);
+      const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), flow_ranks(o, c));
       table = cfd.derivatives.table;
       j["trim"] = trim_json(cfd.trim);
       j["derivatives"] = derivatives_json(cfd.derivatives);
       j["cfd"] = cfd_study_json(cfd);
     } else {
+      flow_ranks(o, c);
       const auto model = make_aero_model(c);
       const TrimResult t = trim_or_evaluate(o, c, *model);
       if (!o.quiet && !t.solved) print_trim(c, t, seconds_since(t0));
@@ -254,6 +281,7 @@ int run_stability(const CommandOptions& o) {
       j["derivatives"] = derivatives_json(d);
     }
   }
+  if (!speaks(o)) return 0;
   const StabilityReport rep = stability_of(table, o.model);
   j["stability"] = stability_json(rep, o.model);
   j["wall_time_s"] = seconds_since(t0);
@@ -280,17 +308,19 @@ int run_analyze(const CommandOptions& o) {
   DerivativeResult d;
   WrenchHistory history;
   if (c.aero.model == "cfd") {
-    cfd = cfd_study(c, dir + "/cfd_runs", o.quiet ? nullptr : &std::cerr);
+    cfd = cfd_study(c, dir + "/cfd_runs", cfd_log(o), flow_ranks(o, c));
     t = cfd->trim;
     d = cfd->derivatives;
     history = cfd->history;
   } else {
+    flow_ranks(o, c);
     t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
     AeroRunOptions fine;
     fine.samples_per_cycle = 256;
     history = model->run(c.insect, t.kinematics, BodyMotion{}, fine);
   }
+  if (!speaks(o)) return 0;
   const StabilityReport rep = stability_of(d.table, "6dof");
   // The time-periodic analysis and the revolving-wing comparison need an instantaneous model and a
   // symmetric insect; where they cannot run, the report says why and the rest is still written.
@@ -398,6 +428,29 @@ int run_analyze(const CommandOptions& o) {
                dir, files.figures.size(), seconds_since(t0));
   }
   return 0;
+}
+
+int run_in_flow_groups(CommandOptions o, const std::string& name, int (*command)(const CommandOptions&)) {
+  if (o.ranks_per_flow == 0) return command(o);
+  const int k = o.ranks_per_flow, n = ns::Decomposition::launched_processes();
+  if (n == 1 && k > 1)
+    throw InputError("--ranks-per-flow", "",
+                     fmt::format("{} ranks per flow need processes started by mpiexec; this is one process", k),
+                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k, k));
+  std::shared_ptr<const ns::Decomposition> job;
+  try {
+    job = ns::Decomposition::launched();
+  } catch (const std::runtime_error& e) {  // several processes, but built without MPI
+    throw InputError("--ranks-per-flow", "", e.what());
+  }
+  if (n % k != 0) {
+    if (job->rank() != 0) return 2;  // rank 0 says why
+    throw InputError("--ranks-per-flow", "",
+                     fmt::format("{} ranks per flow, but mpiexec started {} processes: the groups must be whole", k, n),
+                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k, k));
+  }
+  o.flow_ranks = job->split(k);
+  return run_over_ranks(*o.flow_ranks, "flapstab " + name, [&] { return command(o); });
 }
 
 }  // namespace flapstab

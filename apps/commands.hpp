@@ -1,9 +1,13 @@
 // The flapstab subcommands as library functions (the CLI in main.cpp only parses arguments).
 #pragma once
+#include <memory>
 #include <string>
 #include "core/case_file.hpp"
 
 namespace flapstab {
+namespace ns {
+class Decomposition;
+}
 
 struct CommandOptions {
   std::string case_path;     // CASE.toml
@@ -14,7 +18,18 @@ struct CommandOptions {
   bool quiet = false;
   bool no_trim = false;      // --no-trim: evaluate at the case's kinematics as they are (derivatives, stability,
                              // floquet, analyze), the residual reported instead of balanced
+  // --ranks-per-flow K (trim-hover, derivatives, stability, analyze with the CFD model, under mpiexec -n N, N a
+  // multiple of K): the job's ranks in N / K groups, each running the CFD model's flows over its K ranks (the grid in
+  // z slabs), the groups sharing the run cache as a campaign's processes do. 0: not given (each process alone).
+  int ranks_per_flow = 0;
+  // This process's group (set by run_in_flow_groups); its rank 0 logs and writes the command's files.
+  std::shared_ptr<const ns::Decomposition> flow_ranks;
 };
+
+// Runs a command (run_trim_hover, ...) in this process's group of --ranks-per-flow ranks: checks the option against
+// the ranks mpiexec started (InputError naming --ranks-per-flow), makes the groups (collective over the job) and ends
+// the group's ranks together on an error (run_over_ranks). Without the option, command(o).
+int run_in_flow_groups(CommandOptions o, const std::string& name, int (*command)(const CommandOptions&));
 
 // load_case for every command but floquet: a case with [body_motion] (the translation-only model, which only
 // `flapstab floquet` solves) is refused with an InputError naming body_motion, before anything is computed or written.

@@ -27,6 +27,15 @@ void add_no_trim(CLI::App* sub, flapstab::CommandOptions& o) {
                 "(quasi-steady model only)");
 }
 
+// --ranks-per-flow on the commands that run the CFD model's flows.
+void add_ranks_per_flow(CLI::App* sub, flapstab::CommandOptions& o) {
+  sub->add_option("--ranks-per-flow", o.ranks_per_flow,
+                  "with model = \"cfd\", under mpiexec -n N: run each CFD flow over K ranks (the grid in z slabs), "
+                  "the N / K groups sharing the runs as a campaign (N a multiple of K; docs/user-guide.md)")
+      ->type_name("K")
+      ->check(CLI::Range(1, 1 << 20));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -38,10 +47,12 @@ int main(int argc, char** argv) {
   CLI::App* trim = app.add_subcommand("trim-hover", "cycle-averaged hover trim: kinematic parameters and attitude "
                                                     "at which the mean force balances the weight and the mean moments vanish");
   add_common(trim, o);
+  add_ranks_per_flow(trim, o);
   CLI::App* der = app.add_subcommand("derivatives", "trim, then the cycle-averaged stability derivatives "
                                                     "(central differences in u, v, w, p, q, r)");
   add_common(der, o);
   add_no_trim(der, o);
+  add_ranks_per_flow(der, o);
   CLI::App* floq = app.add_subcommand("floquet", "time-periodic hover: cyclic trim of the free body-plus-wings "
                                                  "system, phase-resolved derivatives, monodromy by two routes, Floquet "
                                                  "multipliers and modes beside the averaged LTI modes");
@@ -59,12 +70,14 @@ int main(int argc, char** argv) {
   stab->add_option("-o,--output", o.output_dir, "write stability.json and stability.md into this directory");
   stab->add_flag("-q,--quiet", o.quiet, "print nothing on success");
   add_no_trim(stab, o);
+  add_ranks_per_flow(stab, o);
   CLI::App* an = app.add_subcommand("analyze", "the main job: trim, derivatives, stability, and a report "
                                                "(report.md, report.html, results.json, derivatives.toml, figures)");
   an->add_option("case", o.case_path, "case file (TOML)")->required()->check(CLI::ExistingFile);
   an->add_option("-o,--output", o.output_dir, "output directory (default: the case's [output] directory)");
   an->add_flag("-q,--quiet", o.quiet, "print nothing on success");
   add_no_trim(an, o);
+  add_ranks_per_flow(an, o);
   flapstab::CfdCommandOptions co;
   CLI::App* cfd = app.add_subcommand(
       "cfd", "Navier-Stokes immersed-boundary run of the case's insect ([aero.cfd] settings): prints the grid, memory "
@@ -160,9 +173,9 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   try {
-    if (trim->parsed()) return flapstab::run_trim_hover(o);
-    if (der->parsed()) return flapstab::run_derivatives(o);
-    if (an->parsed()) return flapstab::run_analyze(o);
+    if (trim->parsed()) return flapstab::run_in_flow_groups(o, "trim-hover", flapstab::run_trim_hover);
+    if (der->parsed()) return flapstab::run_in_flow_groups(o, "derivatives", flapstab::run_derivatives);
+    if (an->parsed()) return flapstab::run_in_flow_groups(o, "analyze", flapstab::run_analyze);
     if (cfd->parsed()) return flapstab::run_cfd_command(co);
     if (floq->parsed()) return flapstab::run_floquet(o);
     if (fly->parsed()) return flapstab::run_fly(fo);
@@ -174,7 +187,7 @@ int main(int argc, char** argv) {
         fmt::print(stderr, "flapstab stability: give either a case file or --derivatives TABLE.toml\n");
         return 2;
       }
-      return flapstab::run_stability(o);
+      return flapstab::run_in_flow_groups(o, "stability", flapstab::run_stability);
     }
   } catch (const flapstab::InputError& e) {
     fmt::print(stderr, "flapstab: error: {}\n", e.what());

@@ -15,6 +15,7 @@
 
 #include "cfd/fpm/observer.hpp"
 #include "cfd/navier_stokes/run.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "core/hash.hpp"
@@ -257,16 +258,60 @@ std::optional<nlohmann::json> read_json(const std::string& path, const std::stri
 }
 
 
+// The ranks the model's flows run over (CfdModel::run_over): rank 0 reads and writes the cache and holds its file
+// locks for them all and tells the others what it found (from_root), so that every rank makes the same decisions and
+// meets the same collective operations; a state kept in the cache is the whole grid's, which every rank reads.
+struct Ranks {
+  std::shared_ptr<const Decomposition> d;  // never null (one rank without MPI by default)
+  bool lead() const { return d->rank() == 0; }
+  template <class Fn>
+  void on_lead(Fn&& fn) const {
+    on_root(*d, std::forward<Fn>(fn));
+  }
+  std::optional<nlohmann::json> json(const std::string& path, const std::string& key) const {
+    const std::string text = from_root(*d, [&] {
+      const auto j = read_json(path, key);
+      return j ? j->dump() : std::string();
+    });
+    if (text.empty()) return std::nullopt;
+    return nlohmann::json::parse(text);
+  }
+  bool exists(const std::string& path) const {
+    return from_root(*d, [&] { return std::string(fs::exists(path) ? "1" : ""); }) == "1";
+  }
+  // claim() on rank 0, the others waiting (without spinning) until it holds the lock.
+  template <class Say>
+  void claim(std::optional<FileLock>& lock, const std::string& path, const std::string& what, const Say& say) const {
+    from_root(*d, [&] {
+      ::flapstab::ns::claim(lock, path, what, say);
+      return std::string();
+    });
+  }
+  // The lock taken without waiting: "" when rank 0 holds it, else who does.
+  std::string try_claim(std::optional<FileLock>& lock, const std::string& path) const {
+    return from_root(*d, [&] {
+      lock.emplace(path, FileLock::Mode::try_only);
+      return lock->held() ? std::string() : "held: " + FileLock::holder(path);
+    });
+  }
+  SimulationState to_keep(const Simulation& sim) const { return d->distributed() ? sim.whole_state() : sim.state(); }
+  SimulationOptions options(SimulationOptions o = {}) const {
+    if (d->distributed()) o.decomposition = d;
+    return o;
+  }
+};
+
 // A run under way keeps its state after its last whole wingbeat (h5) and what it has measured so far (json, with
 // `key` and `step`): read back if both belong to `key` and to each other (a run killed between the two writes gets a
 // warning through `say` and starts again), kept after each wingbeat, removed when the run ends.
 struct PartialRun {
   std::string json, h5;
-  std::optional<std::pair<SimulationState, nlohmann::json>> read(const std::string& key, const Shape& shape,
+  std::optional<std::pair<SimulationState, nlohmann::json>> read(const Ranks& ranks, const std::string& key,
+                                                                 const Shape& shape,
                                                                  const std::function<void(const std::string&)>& say,
                                                                  const char* restart) const {
-    const auto part = read_json(json, key);
-    if (!part || !fs::exists(h5)) return std::nullopt;
+    const auto part = ranks.json(json, key);
+    if (!part || !ranks.exists(h5)) return std::nullopt;
     const CheckpointReader ck(h5);
     SimulationState saved = read_state(ck, shape);
     if (saved.step == part->at("step").get<long>()) return std::make_pair(std::move(saved), *part);
@@ -274,16 +319,22 @@ struct PartialRun {
                     part->at("step").get<long>(), restart));
     return std::nullopt;
   }
-  void keep(const std::string& key, const SimulationState& state, nlohmann::json measured) const {
-    write_state(h5, state, {}, {{"key", key}});
-    measured["key"] = key;
-    measured["step"] = state.step;
-    write_file_atomic(json, measured.dump(1) + "\n");
+  void keep(const Ranks& ranks, const std::string& key, const Simulation& sim, nlohmann::json measured) const {
+    const SimulationState state = ranks.to_keep(sim);
+    ranks.on_lead([&] {
+      fs::create_directories(fs::path(h5).parent_path());
+      write_state(h5, state, {}, {{"key", key}});
+      measured["key"] = key;
+      measured["step"] = state.step;
+      write_file_atomic(json, measured.dump(1) + "\n");
+    });
   }
-  void remove() const {
-    std::error_code ec;
-    fs::remove(json, ec);
-    fs::remove(h5, ec);
+  void remove(const Ranks& ranks) const {
+    ranks.on_lead([&] {
+      std::error_code ec;
+      fs::remove(json, ec);
+      fs::remove(h5, ec);
+    });
   }
 };
 
@@ -316,7 +367,18 @@ struct CfdModel::State {
 };
 
 CfdModel::CfdModel(Case c, std::ostream* log, std::string cache_directory)
-    : case_(std::move(c)), log_(log), cache_(std::move(cache_directory)) {}
+    : case_(std::move(c)), log_(log), cache_(std::move(cache_directory)),
+      ranks_(std::make_shared<const Decomposition>()) {}
+
+void CfdModel::run_over(std::shared_ptr<const Decomposition> ranks) {
+  if (st_) throw std::logic_error("CfdModel::run_over: call before the first run");
+  if (ranks && ranks->distributed() && case_.aero.cfd.fpm.enabled)
+    throw InputError(case_.path, "aero.cfd.fpm.enabled",
+                     fmt::format("force partitioning runs in one process; the CFD model's flows would run over {} MPI "
+                                 "ranks", ranks->size()),
+                     "enabled = false, or the analysis without --ranks-per-flow");
+  ranks_ = ranks ? std::move(ranks) : std::make_shared<const Decomposition>();
+}
 CfdModel::~CfdModel() = default;
 
 const std::vector<CfdRunRecord>& CfdModel::records() const {
@@ -338,11 +400,12 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                      "the CFD model runs periodic wingbeats with a fixed, phase-locked time step; none is set",
                      "steps_per_cycle = N, e.g. 400 (a whole number of steps per wingbeat)");
   auto& self = const_cast<CfdModel&>(*this);
+  const Ranks ranks{ranks_};
   const std::string print = fingerprint(insect, kin);
   const std::string hash = case_.path.empty() ? std::string("none") : case_hash(case_.path);
   auto file = [&](const std::string& name) { return cache_ + "/" + name; };
   auto say = [&](const std::string& line) {
-    if (log_) *log_ << line << std::flush;
+    if (log_ && ranks_->rank() == 0) *log_ << line << std::flush;
   };
   const double weight = insect.weight();
 
@@ -356,6 +419,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     std::vector<Kinematics> kins{kin};
     kins.insert(kins.end(), plan_for_.begin(), plan_for_.end());
     st->plan = plan_cfd(st->base_case, kins, {BodyMotion{}});
+    check_ranks_share_grid(st->plan, ranks_->size(), true, case_.path, "--ranks-per-flow");
     // The key names the grid too: the kinematics the grid is planned for (trim bounds, a controller's range) are
     // not all in the case hash, and a kept state is only valid on its own grid.
     const Shape gs = plan_grid(st->plan).shape();
@@ -371,9 +435,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     rec.label = "hover";
     // Processes sharing the cache (a campaign) make the hover once: the others wait for it and reuse it.
     std::optional<FileLock> hover_lock;
-    if (!cache_.empty()) claim(hover_lock, file("hover.lock"), "the hover", say);
-    const auto cached = cache_.empty() ? std::nullopt : read_json(file("hover.json"), st->key);
-    if (cached && fs::exists(file("hover.h5"))) {
+    if (!cache_.empty()) ranks.claim(hover_lock, file("hover.lock"), "the hover", say);
+    const auto cached = cache_.empty() ? std::nullopt : ranks.json(file("hover.json"), st->key);
+    if (cached && ranks.exists(file("hover.h5"))) {
       const CheckpointReader ck(file("hover.h5"));
       st->hover_state = read_state(ck, plan_grid(st->plan).shape());
       st->hover_rows = rows_from(cached->at("last_cycle"));
@@ -390,13 +454,13 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                       st->hover_settings.max_cycles, st->hover_settings.tolerance,
                       p.sponge_width > 0 ? fmt::format("; sponge layer {:.3g} m deep along the faces", p.sponge_width)
                                          : std::string()));
-      Simulation sim(st->base_case, kin, BodyMotion{}, p);
+      Simulation sim(st->base_case, kin, BodyMotion{}, p, ranks.options());
       // A hover interrupted (killed) resumes from its last whole wingbeat: its state and its wingbeats so far are kept
       // after every wingbeat beside hover.h5, and removed when it ends.
       const PartialRun partial{file("hover.partial.json"), file("hover.partial.h5")};
       PeriodicRun earlier;
       if (const auto part = cache_.empty() ? std::nullopt
-                                           : partial.read(st->key, plan_grid(p).shape(), say,
+                                           : partial.read(ranks, st->key, plan_grid(p).shape(), say,
                                                           "the hover starts again from rest")) {
         sim.restore(part->first);
         earlier.cycles = cycles_from(part->second.at("cycles"));
@@ -406,8 +470,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       }
       auto keep = [&](const PeriodicRun& so_far) {
         if (cache_.empty()) return;
-        fs::create_directories(cache_);
-        partial.keep(st->key, sim.state(),
+        partial.keep(ranks, st->key, sim,
                      {{"cycles", cycles_json(so_far.cycles)}, {"last_cycle", rows_json(so_far.last_cycle)},
                       {"wall_s", so_far.wall_seconds}});
       };
@@ -428,16 +491,19 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                         "hover_tolerance {:g}); its state is kept and perturbations are measured against its "
                         "continuation\n", pr.cycles.size(), pr.final_change(), st->hover_settings.tolerance));
       if (!cache_.empty()) {
-        fs::create_directories(cache_);
-        write_state(file("hover.h5"), st->hover_state, {}, {{"key", st->key}});
-        nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
-                            {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
-        write_file_atomic(file("hover.json"), j.dump(1) + "\n");
-        partial.remove();
+        const SimulationState whole = ranks.to_keep(sim);
+        ranks.on_lead([&] {
+          fs::create_directories(cache_);
+          write_state(file("hover.h5"), whole, {}, {{"key", st->key}});
+          nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
+                              {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
+          write_file_atomic(file("hover.json"), j.dump(1) + "\n");
+        });
+        partial.remove(ranks);
       }
     }
     if (!cache_.empty()) {
-      if (const auto r = read_json(file("reference.json"), st->key)) {
+      if (const auto r = ranks.json(file("reference.json"), st->key)) {
         st->ref_cycles = cycles_from(r->at("cycles"));
         for (const auto& c : r->at("rows")) st->ref_rows.push_back(rows_from(c));
         st->ref_partition = partitions_from(*r, st->ref_cycles.size());
@@ -471,22 +537,21 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   rec.other_kinematics = !base_kin;
   std::vector<CfdLoadRow> diff;
   const int number = ++st.runs;
-  auto cached = cache_.empty() ? std::nullopt : read_json(run_file, run_key);
+  auto cached = cache_.empty() ? std::nullopt : ranks.json(run_file, run_key);
   // Processes sharing the cache (a campaign) each make the runs no other one holds.
   std::optional<FileLock> run_lock;
   if (!cached && !cache_.empty()) {
     const std::string lock = file("run_" + run_key + ".lock");
     if (options.defer_held) {
-      run_lock.emplace(lock, FileLock::Mode::try_only);
-      if (!run_lock->held()) {
+      if (const std::string held = ranks.try_claim(run_lock, lock); !held.empty()) {
         --st.runs;
         throw RunHeldElsewhere(fmt::format("cfd model: run {} ({}) is being made by another process ({})", number,
-                                           label, FileLock::holder(lock)));
+                                           label, held.substr(6)));
       }
     } else {
-      claim(run_lock, lock, fmt::format("run {} ({})", number, label), say);
+      ranks.claim(run_lock, lock, fmt::format("run {} ({})", number, label), say);
     }
-    cached = read_json(run_file, run_key);  // finished by another process before the lock was got
+    cached = ranks.json(run_file, run_key);  // finished by another process before the lock was got
   }
   if (cached) {
     rec.cycles = cycles_from(cached->at("cycles"));
@@ -528,7 +593,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     CfdPlan plan = st.plan;  // the same grid; the time step of these kinematics' wingbeat
     plan.period = kin.period();
     plan.dt = plan.period / plan.steps_per_cycle;
-    Simulation sim(c, kin, motion, plan);
+    Simulation sim(c, kin, motion, plan, ranks.options());
     std::vector<std::vector<CfdLoadRow>> history;  // d at every phase, per wingbeat
     // With [aero.cfd.fpm], no body rates (an inertial grid frame) and the base hover's kinematics (the derivative
     // runs; a trim iterate's are not split): the run's partition, per wingbeat.
@@ -542,7 +607,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     double earlier_seconds = 0;
     bool resumed = false;
     if (const auto part = cache_.empty() ? std::nullopt
-                                         : partial.read(run_key, plan_grid(plan).shape(), say,
+                                         : partial.read(ranks, run_key, plan_grid(plan).shape(), say,
                                                         "the run starts again from the hover")) {
       sim.restore(part->first);
       for (const auto& h : part->second.at("history")) history.push_back(rows_from(h));
@@ -552,7 +617,10 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       resumed = true;
       say(fmt::format("  resumed after its wingbeat {} from {}\n", history.size(), partial.h5));
     }
-    if (!resumed) sim.restore(st.hover_state, BodyMotion{});
+    if (!resumed) {
+      st.hover_state = own_planes(st.hover_state, sim.solver());  // a whole-grid state read from the cache: the slab
+      sim.restore(st.hover_state, BodyMotion{});
+    }
     for (int k = int(history.size()) + 1; k <= st.perturbed_settings.max_cycles; ++k) {
       std::vector<CfdLoadRow> rows;
       const double from = sim.time();
@@ -620,10 +688,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
         break;
       }
       if (!cache_.empty() && k < st.perturbed_settings.max_cycles) {
-        fs::create_directories(cache_);
         nlohmann::json hj = nlohmann::json::array();
         for (const auto& h : history) hj.push_back(rows_json(h));
-        partial.keep(run_key, sim.state(),
+        partial.keep(ranks, run_key, sim,
                      {{"cycles", cycles_json(rec.cycles)}, {"history", hj}, {"partition", partitions_json(phist)},
                       {"wall_s", earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count()}});
       }
@@ -635,12 +702,14 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                       st.perturbed_settings.tolerance));
     say(fmt::format("cfd model: run {} done: {} wingbeats in {:.1f} s\n", number, rec.cycles.size(), rec.wall_seconds));
     if (!cache_.empty()) {
-      fs::create_directories(cache_);
-      nlohmann::json j = {{"key", run_key}, {"label", label}, {"cycles", cycles_json(rec.cycles)},
-                          {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)},
-                          {"partition", rec.partition ? partition_json(*rec.partition) : nlohmann::json()}};
-      write_file_atomic(run_file, j.dump(1) + "\n");
-      partial.remove();
+      ranks.on_lead([&] {
+        fs::create_directories(cache_);
+        nlohmann::json j = {{"key", run_key}, {"label", label}, {"cycles", cycles_json(rec.cycles)},
+                            {"converged", rec.converged}, {"wall_s", rec.wall_seconds}, {"difference", rows_json(diff)},
+                            {"partition", rec.partition ? partition_json(*rec.partition) : nlohmann::json()}};
+        write_file_atomic(run_file, j.dump(1) + "\n");
+      });
+      partial.remove(ranks);
     }
   }
   st.records.push_back(rec);
@@ -655,14 +724,15 @@ void CfdModel::continue_reference(int k) const {
   const int n = st.plan.steps_per_cycle;
   auto file = [&](const std::string& name) { return cache_ + "/" + name; };
   auto say = [&](const std::string& line) {
-    if (log_) *log_ << line << std::flush;
+    if (log_ && ranks_->rank() == 0) *log_ << line << std::flush;
   };
   // The reference at the same wingbeat: one process at a time extends it (a campaign), after taking what the
   // others added.
+  const Ranks ranks{ranks_};
   std::optional<FileLock> ref_lock;
   if (int(st.ref_cycles.size()) < k && !cache_.empty()) {
-    claim(ref_lock, file("reference.lock"), "the continued hover", say);
-    const auto r = read_json(file("reference.json"), st.key);
+    ranks.claim(ref_lock, file("reference.lock"), "the continued hover", say);
+    const auto r = ranks.json(file("reference.json"), st.key);
     if (r && r->at("cycles").size() > st.ref_cycles.size()) {
       st.ref_cycles = cycles_from(r->at("cycles"));
       st.ref_rows.clear();
@@ -675,10 +745,10 @@ void CfdModel::continue_reference(int k) const {
   }
   while (int(st.ref_cycles.size()) < k) {
     if (!st.ref_sim) {
-      st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan);
+      st.ref_sim = std::make_unique<Simulation>(st.base_case, st.base_kin, BodyMotion{}, st.plan, ranks.options());
       std::optional<SimulationState> end;  // the cached reference's state after its last wingbeat
       const long end_step = st.hover_state.step + long(st.ref_cycles.size()) * n;
-      if (st.ref_on_file && !st.ref_cycles.empty() && fs::exists(file("reference.h5"))) {
+      if (st.ref_on_file && !st.ref_cycles.empty() && ranks.exists(file("reference.h5"))) {
         const CheckpointReader ck(file("reference.h5"));
         end = read_state(ck, plan_grid(st.plan).shape());
         if (end->step != end_step) end.reset();
@@ -693,6 +763,7 @@ void CfdModel::continue_reference(int k) const {
         st.ref_partition.clear();
       }
       st.ref_on_file = false;
+      if (!end) st.hover_state = own_planes(st.hover_state, st.ref_sim->solver());
       st.ref_sim->restore(end ? *end : st.hover_state);
       if (s.fpm.enabled) st.ref_fpm = std::make_unique<fpm::FpmObserver>(*st.ref_sim, s.fpm, std::string());
     }
@@ -717,12 +788,15 @@ void CfdModel::continue_reference(int k) const {
     say(fmt::format("  reference wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N\n", cr.cycle,
                     cr.mean.force.x(), cr.mean.force.y(), cr.mean.force.z()));
     if (!cache_.empty()) {
-      write_state(file("reference.h5"), st.ref_sim->state(), {}, {{"key", st.key}});
-      nlohmann::json rows = nlohmann::json::array();
-      for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
-      write_file_atomic(file("reference.json"),
-                        nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows},
-                                       {"partition", partitions_json(st.ref_partition)}}.dump(1) + "\n");
+      const SimulationState whole = ranks.to_keep(*st.ref_sim);
+      ranks.on_lead([&] {
+        write_state(file("reference.h5"), whole, {}, {{"key", st.key}});
+        nlohmann::json rows = nlohmann::json::array();
+        for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
+        write_file_atomic(file("reference.json"),
+                          nlohmann::json{{"key", st.key}, {"cycles", cycles_json(st.ref_cycles)}, {"rows", rows},
+                                         {"partition", partitions_json(st.ref_partition)}}.dump(1) + "\n");
+      });
     }
   }
 }
@@ -739,7 +813,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   State& st = *st_;
   auto file = [&](const std::string& name) { return cache_ + "/" + name; };
   auto say = [&](const std::string& line) {
-    if (log_) *log_ << line << std::flush;
+    if (log_ && ranks_->rank() == 0) *log_ << line << std::flush;
   };
   const int n = st.plan.steps_per_cycle;
   const double T = st.plan.period;
@@ -753,14 +827,15 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
   r.omega = 2 * std::numbers::pi / (spec.period_wingbeats * T);
   const std::string label = fmt::format("pitch oscillation of {:.3g} deg, period {} wingbeats",
                                         spec.amplitude * 180 / std::numbers::pi, spec.period_wingbeats);
+  const Ranks ranks{ranks_};
   std::optional<FileLock> lock;
-  if (!cache_.empty()) claim(lock, file("pitch_" + key + ".lock"), "the " + label, say);
+  if (!cache_.empty()) ranks.claim(lock, file("pitch_" + key + ".lock"), "the " + label, say);
   double earlier_seconds = 0;
   // The run's file is kept when it ends (a later study may extend it): its state after the last wingbeat and the
   // wingbeats so far, read back as a partial run's.
   const PartialRun kept_run{json_file, h5_file};
   std::optional<SimulationState> kept;
-  if (const auto j = cache_.empty() ? std::nullopt : read_json(json_file, key)) {
+  if (const auto j = cache_.empty() ? std::nullopt : ranks.json(json_file, key)) {
     for (const auto& w : j->at("wingbeats")) {
       OscillationWingbeat o;
       o.theta = w.at("theta_rad").get<double>();
@@ -778,10 +853,10 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     earlier_seconds = j->at("wall_s").get<double>();
     if (int(r.wingbeats.size()) < needed) {
       const std::string restart = "the " + label + " starts again from the hover";
-      if (auto part = kept_run.read(key, plan_grid(st.plan).shape(), say, restart.c_str())) {
+      if (auto part = kept_run.read(ranks, key, plan_grid(st.plan).shape(), say, restart.c_str())) {
         kept = std::move(part->first);
       } else {
-        if (!fs::exists(h5_file)) say(fmt::format("  warning: {} has no state beside it; {}\n", json_file, restart));
+        if (!ranks.exists(h5_file)) say(fmt::format("  warning: {} has no state beside it; {}\n", json_file, restart));
         r.wingbeats.clear();
         earlier_seconds = 0;
       }
@@ -798,7 +873,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     // The grid turns with the body, which keeps its cells: a frame at rate (0, q(t), 0) about O, whose Coriolis and
     // Euler accelerations the solver carries, with the still air's far field -Omega(t) x r on the faces.
     const double start = st.hover_state.time;
-    SimulationOptions options;
+    SimulationOptions options = ranks.options();
     options.frame_rotation.rate = [spec, T, start](double t) {
       return Vec3(0, pitch_oscillation_angle(spec, T, t - start).rate, 0);
     };
@@ -807,8 +882,12 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     };
     Simulation sim(c, kin, BodyMotion{}, st.plan, options);
     // From the hover, whose far field is at rest: the body starts turning at q(0) impulsively.
-    if (kept) sim.restore(*kept);
-    else sim.restore(st.hover_state, BodyMotion{});
+    if (kept) {
+      sim.restore(*kept);
+    } else {
+      st.hover_state = own_planes(st.hover_state, sim.solver());
+      sim.restore(st.hover_state, BodyMotion{});
+    }
     say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} period{} "
                     "fitted)\n",
                     label, spec.amplitude * r.omega,
@@ -846,7 +925,6 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
                       o.difference.moment.z()));
       r.wall_seconds = earlier_seconds + std::chrono::duration<double>(clock_type::now() - t0).count();
       if (!cache_.empty()) {
-        fs::create_directories(cache_);
         nlohmann::json wj = nlohmann::json::array();
         for (const auto& w : r.wingbeats) {
           nlohmann::json steps = nlohmann::json::array();
@@ -858,7 +936,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
                         {"dM_N_m", {w.difference.moment.x(), w.difference.moment.y(), w.difference.moment.z()}},
                         {"dW_steps", steps}});
         }
-        kept_run.keep(key, sim.state(),
+        kept_run.keep(ranks, key, sim,
                       {{"label", label}, {"amplitude_rad", spec.amplitude}, {"period_wingbeats", spec.period_wingbeats},
                        {"wingbeats", wj}, {"wall_s", r.wall_seconds}});
       }

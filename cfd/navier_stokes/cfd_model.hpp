@@ -74,6 +74,13 @@ class CfdModel final : public AeroModel {
   WrenchHistory run(const Insect& insect, const Kinematics& kin, const BodyMotion& motion,
                     const AeroRunOptions& options) const override;
 
+  // Runs every flow over these ranks (a group of an MPI job, Decomposition::split): each rank holds its slab of the
+  // grid, and every rank of the group must call the same methods in the same order with the same arguments; rank 0
+  // reads and writes the cache and takes its locks for the group (another group, or another process, sharing the
+  // cache directory is a campaign member like any). The log is rank 0's: give the others a null log. Force
+  // partitioning ([aero.cfd.fpm]) is refused over several ranks. Call before the first run.
+  void run_over(std::shared_ptr<const Decomposition> ranks);
+
   // Further kinematics the shared grid must hold (e.g. a trim's parameter bounds); call before the first run.
   void plan_for(std::vector<Kinematics> kinematics) { plan_for_ = std::move(kinematics); }
 
@@ -83,6 +90,8 @@ class CfdModel final : public AeroModel {
   const CfdPlan* plan() const;
   // The kept periodic hover state (the base hover's last wingbeat ends in it; after the first run), else nullptr:
   // free flight coupled to the solver starts from it.
+  // Over several ranks (run_over) this rank's slab, or the whole grid's when it was read from the cache and no flow
+  // has started from it yet (Simulation::restore takes either).
   const SimulationState* hover_state() const;
   // The base hover's run record (after the first run), else nullptr.
   const CfdRunRecord* hover_record() const { return records().empty() ? nullptr : &records().front(); }
@@ -103,6 +112,7 @@ class CfdModel final : public AeroModel {
   std::ostream* log_;
   std::string cache_;
   std::vector<Kinematics> plan_for_;
+  std::shared_ptr<const Decomposition> ranks_;  // one rank without MPI unless run_over
   std::unique_ptr<State> st_;
 };
 

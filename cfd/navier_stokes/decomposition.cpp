@@ -2,9 +2,11 @@
 #include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/mpi_start.hpp"
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #ifdef FLAPSTAB_HAVE_MPI
 #include <mpi.h>
 #endif
@@ -247,6 +249,23 @@ void Decomposition::sum(double* v, int n) const {
     MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, comm_->comm);
   }
 }
+void Decomposition::broadcast(std::string& text) const {
+  if (!comm_ || size_ <= 1) return;
+  // The length first, without a busy wait: the other ranks may wait here for minutes while rank 0 waits for a file
+  // lock (another group's run), and Open MPI's blocking collectives would spin on their cores.
+  long length = rank_ == 0 ? long(text.size()) : 0;
+  MPI_Request request;
+  MPI_Ibcast(&length, 1, MPI_LONG, 0, comm_->comm, &request);
+  for (int done = 0, polls = 0;; ++polls) {
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    if (done) break;
+    if (polls < 1000) std::this_thread::yield();  // a quick answer (a file written) costs no sleep
+    else std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  if (rank_ != 0) text.assign(std::size_t(length), '\0');
+  if (length > 0) MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, comm_->comm);
+}
+
 double Decomposition::max(double v) const {
   if (comm_ && size_ > 1) {
     const Timed timed(traffic_.seconds);
@@ -264,6 +283,7 @@ void Decomposition::gather_planes(float*, const Shape&, const std::vector<Slab>&
 double Decomposition::sum(double v) const { return v; }
 void Decomposition::sum(double*, int) const {}
 double Decomposition::max(double v) const { return v; }
+void Decomposition::broadcast(std::string&) const {}
 #endif
 
 }  // namespace flapstab::ns

@@ -85,6 +85,9 @@ class Decomposition {
   double sum(double v) const;
   void sum(double* v, int n) const;  // element-wise, in place
   double max(double v) const;
+  // Rank 0's text on every rank. The others wait without spinning on their cores (after a short while they poll every
+  // 2 ms): rank 0 may be waiting for a file lock meanwhile.
+  void broadcast(std::string& text) const;
 
   // What this rank has communicated since construction (for the cost model in docs/theory/scale-out.md): ghost
   // exchanges (each one or two plane messages), the bytes it sent in them and in gathers, all-reductions, and the
@@ -109,39 +112,51 @@ class RanksFailed : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Runs fn on rank 0 only (a file that rank 0 writes for all) and makes its failure every rank's, so that no rank
-// goes on into a collective operation that rank 0 has left: rank 0 rethrows its InputError, OutputError or
-// SolveError, the others throw one of the same kind saying that rank 0 failed; any other exception becomes
-// RanksFailed on every rank (rank 0's with its message). Every rank must call it; on one rank it is fn().
+// Runs fn on rank 0 only (a file that rank 0 reads or writes for all, a file lock it takes) and gives every rank its
+// result, the text fn returns; rank 0's failure becomes every rank's, so that no rank goes on into a collective
+// operation that rank 0 has left: rank 0 rethrows its InputError, OutputError or SolveError, the others throw one of
+// the same kind saying that rank 0 failed; any other exception becomes RanksFailed on every rank (rank 0's with its
+// message). The other ranks wait without spinning (broadcast). Every rank must call it; on one rank it is fn().
 template <class Fn>
-void on_root(const Decomposition& D, Fn&& fn) {
-  if (!D.distributed()) {
-    fn();
-    return;
-  }
+std::string from_root(const Decomposition& D, Fn&& fn) {
+  if (!D.distributed()) return fn();
   std::exception_ptr error;
-  int kind = 0;
-  if (D.rank() == 0) try {
-      fn();
+  std::string text;  // rank 0: a digit (the failure's kind, 0 for none), then fn's result
+  if (D.rank() == 0) {
+    char kind = '0';
+    try {
+      text = fn();
     } catch (const InputError&) {
-      error = std::current_exception(), kind = 1;
+      error = std::current_exception(), kind = '1';
     } catch (const OutputError&) {
-      error = std::current_exception(), kind = 2;
+      error = std::current_exception(), kind = '2';
     } catch (const SolveError&) {
-      error = std::current_exception(), kind = 3;
+      error = std::current_exception(), kind = '3';
     } catch (const std::exception& e) {
-      error = std::make_exception_ptr(RanksFailed(e.what())), kind = 4;
+      error = std::make_exception_ptr(RanksFailed(e.what())), kind = '4';
     } catch (...) {
-      error = std::make_exception_ptr(RanksFailed("unknown exception")), kind = 4;
+      error = std::make_exception_ptr(RanksFailed("unknown exception")), kind = '4';
     }
-  kind = int(D.max(double(kind)));
-  if (kind == 0) return;
+    text.insert(text.begin(), kind);
+  }
+  D.broadcast(text);
+  const char kind = text.empty() ? '4' : text[0];
+  if (kind == '0') return text.substr(1);
   if (D.rank() == 0) std::rethrow_exception(error);
   const std::string why = "rank 0 failed (its message says why)";
-  if (kind == 1) throw InputError("", "", why);
-  if (kind == 2) throw OutputError(why);
-  if (kind == 3) throw SolveError(why);
+  if (kind == '1') throw InputError("", "", why);
+  if (kind == '2') throw OutputError(why);
+  if (kind == '3') throw SolveError(why);
   throw RanksFailed(why);
+}
+
+// Runs fn on rank 0 only (a file that rank 0 writes for all) and makes its failure every rank's (from_root).
+template <class Fn>
+void on_root(const Decomposition& D, Fn&& fn) {
+  from_root(D, [&] {
+    fn();
+    return std::string();
+  });
 }
 
 }  // namespace flapstab::ns

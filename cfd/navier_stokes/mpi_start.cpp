@@ -5,7 +5,9 @@
 #define OMPI_SKIP_MPICXX 1  // the C interface only (no libmpi_cxx)
 #define MPICH_SKIP_MPICXX 1
 #include <mpi.h>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 
 namespace flapstab::ns {
 
@@ -19,7 +21,17 @@ void start_mpi() {
       std::atexit([] {
         int finalised = 0;
         MPI_Finalized(&finalised);
-        if (!finalised) MPI_Finalize();
+        if (finalised) return;
+        // Every rank at the end, waited for without spinning: a group of ranks done with its flows (a campaign,
+        // Decomposition::split) must not take the cores of a group still computing while MPI_Finalize waits for it.
+        MPI_Request request;
+        MPI_Ibarrier(MPI_COMM_WORLD, &request);
+        for (int done = 0;;) {
+          MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+          if (done) break;
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+        MPI_Finalize();
       });
     }
     return true;

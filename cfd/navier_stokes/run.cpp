@@ -145,6 +145,23 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
 
 }  // namespace
 
+void check_ranks_share_grid(const CfdPlan& plan, int ranks, bool bodies, const std::string& file,
+                            const std::string& key) {
+  if (ranks <= 1) return;
+  const Grid g = plan_grid(plan);
+  const std::string why = Solver::split_problem(g, ranks, bodies);
+  if (why.empty()) return;
+  int most = 1;
+  for (int r = ranks - 1; r >= 2 && most == 1; --r)
+    if (Solver::split_problem(g, r, bodies).empty()) most = r;
+  throw InputError(file, key,
+                   fmt::format("{} ranks cannot share this grid ({} x {} x {} cells, split along z): {}", ranks,
+                               g.axis[0].n, g.axis[1].n, g.axis[2].n, why),
+                   most > 1 ? fmt::format("at most {} ranks for this grid, or more z cells (a finer grid, a taller "
+                                          "domain)", most)
+                            : std::string("one process for this grid, or more z cells (a finer grid, a taller domain)"));
+}
+
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& o) {
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
@@ -214,21 +231,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
     }
   }
 
-  if (D.distributed()) {  // a grid too thin for the ranks: bad input, before anything is built
-    const Grid g = plan_grid(plan);
-    if (const std::string why = Solver::split_problem(g, D.size(), o.bodies); !why.empty()) {
-      int most = 1;
-      for (int r = D.size() - 1; r >= 2 && most == 1; --r)
-        if (Solver::split_problem(g, r, o.bodies).empty()) most = r;
-      throw InputError(c.path, "mpiexec -n",
-                       fmt::format("{} ranks cannot share this grid ({} x {} x {} cells, split along z): {}", D.size(),
-                                   g.axis[0].n, g.axis[1].n, g.axis[2].n, why),
-                       most > 1 ? fmt::format("at most {} ranks for this grid, or more z cells (a finer grid, a "
-                                              "taller domain)", most)
-                                : std::string("one process for this grid, or more z cells (a finer grid, a taller "
-                                              "domain)"));
-    }
-  }
+  check_ranks_share_grid(plan, D.size(), o.bodies, c.path, "mpiexec -n");  // before anything is built
   if (s.fpm.enabled && o.bodies) fpm::check_fpm_memory(plan, s.fpm, c.path);  // before anything large is allocated
   SimulationOptions so;
   so.bodies = o.bodies;

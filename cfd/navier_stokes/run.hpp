@@ -86,6 +86,12 @@ CfdRunResult cfd_run_result(const std::vector<CfdLoadRow>& rows, const CfdPlan& 
 // One paragraph for the terminal: the window and the mean loads, lift / weight and wing power.
 std::string cfd_run_result_text(const CfdRunResult& r);
 
+// Bad input (InputError naming `file` and `key`, e.g. "mpiexec -n") when `ranks` MPI ranks cannot share the plan's grid
+// in z slabs (Solver::split_problem; `bodies`: with the immersed boundary's windows); the hint names the most ranks
+// that can. Nothing for one rank.
+void check_ranks_share_grid(const CfdPlan& plan, int ranks, bool bodies, const std::string& file,
+                            const std::string& key);
+
 // The run. Throws InputError for bad input (before writing anything), SolveError on divergence (after keeping
 // the last checkpoint; the message gives step and time).
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& options);

@@ -26,10 +26,10 @@ struct CfdRunOutput {
   std::string out, err;
 };
 
-// Runs `prefix flapstab cfd args` (prefix: an environment or a launcher), capturing its status and output.
-CfdRunOutput run_cfd_command_line(const std::string& prefix, const std::string& args) {
+// Runs `prefix flapstab args` (prefix: an environment or a launcher), capturing its status and output.
+CfdRunOutput run_flapstab(const std::string& prefix, const std::string& args) {
   const std::string errfile = write_temp("cfd_stderr.txt", ""), outfile = write_temp("cfd_stdout.txt", "");
-  const std::string cmd = prefix + FLAPSTAB_BINARY + " cfd " + args + " > " + outfile + " 2> " + errfile;
+  const std::string cmd = prefix + FLAPSTAB_BINARY + " " + args + " > " + outfile + " 2> " + errfile;
   const int rc = std::system(cmd.c_str());
   auto slurp = [](const std::string& p) {
     std::ifstream in(p);
@@ -38,6 +38,11 @@ CfdRunOutput run_cfd_command_line(const std::string& prefix, const std::string& 
     return ss.str();
   };
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(outfile), slurp(errfile)};
+}
+
+// `prefix flapstab cfd args`.
+CfdRunOutput run_cfd_command_line(const std::string& prefix, const std::string& args) {
+  return run_flapstab(prefix, "cfd " + args);
 }
 
 CfdRunOutput flapstab_cfd(const std::string& args) { return run_cfd_command_line("", args); }
@@ -596,7 +601,8 @@ TEST(CfdCli, KilledAndResumedAnalyzeGivesTheUninterruptedResults) {
 
 // A campaign: the same analysis started twice at once into one output directory (with mpiexec -n 2 where there is
 // one, as on a cluster) shares the run cache: the hover is made once, the derivative runs are split between the two
-// processes, and both write the table of the analysis run alone; a copy killed half-way loses nothing.
+// processes, and both write the table of the analysis run alone; so do two groups of two MPI ranks in one job
+// (--ranks-per-flow 2, each flow over its group); a copy killed half-way loses nothing.
 TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   const std::string text = small_cfd_analysis();
   const std::string path = write_temp("cfdcli_campaign.toml", text);
@@ -656,6 +662,49 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   EXPECT_EQ(x["cfd"]["floquet_longitudinal"], y["cfd"]["floquet_longitudinal"]);
   EXPECT_EQ(x["cfd"]["continued_hover"], y["cfd"]["continued_hover"]);
 
+#if defined(FLAPSTAB_MPIEXEC) && defined(FLAPSTAB_HAVE_MPI)
+  // The same campaign as two groups of two ranks in one job (--ranks-per-flow 2): each flow over its group's two
+  // ranks (z slabs), the groups sharing the runs. Each group's rank 0 speaks for it; its rank 1 says nothing. The
+  // table is the lone run's to 1e-6 of its largest entry: a flow over ranks is the one-process flow to round-off in
+  // each step (tests/mpi), but at the default pressure tolerance (1e-3) round-off decides one more pressure
+  // iteration here and there (measured: 1e-10 of the loads; the tiny cross-coupling entries, zero by symmetry, differ
+  // by up to 3e-9 of 6.4); a group that skipped a run or read another's state would differ by O(1).
+  {
+    const fs::path grouped = fs::path(path).parent_path() / "cfdcli_campaign_groups";
+    fs::remove_all(grouped);
+    const fs::path glogs = fs::path(path).parent_path() / "cfdcli_campaign_group_logs";
+    fs::remove_all(glogs);
+    fs::create_directories(glogs);
+    const std::string glaunch =
+        "OMP_NUM_THREADS=1 " + mpiexec(4) + "bash -c '" + FLAPSTAB_BINARY + " analyze " + path + " -o " + grouped.string() + " --ranks-per-flow 2 > /dev/null 2> " +
+        glogs.string() + "/rank${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-x}}.txt'";
+    ASSERT_EQ(WEXITSTATUS(std::system(glaunch.c_str())), 0) << glaunch;
+    const std::string g0 = slurp(glogs / "rank0.txt"), g2 = slurp(glogs / "rank2.txt");
+    EXPECT_EQ(slurp(glogs / "rank1.txt"), "");
+    EXPECT_EQ(slurp(glogs / "rank3.txt"), "");
+    EXPECT_EQ(count(g0, "hover from rest") + count(g2, "hover from rest"), 1) << g0 << g2;
+    EXPECT_EQ(made(g0) + made(g2), 6) << g0 << g2;
+    EXPECT_GE(made(g0), 1) << g0;
+    EXPECT_GE(made(g2), 1) << g2;
+    const nlohmann::json g = results(grouped);
+    ASSERT_TRUE(g.contains("derivatives"));
+    const auto& a = x["derivatives"]["nondimensional"];
+    const auto& b = g["derivatives"]["nondimensional"];
+    double largest = 0;
+    for (const auto& [k, v] : a.items())
+      if (v.is_number()) largest = std::max(largest, std::abs(v.get<double>()));
+    ASSERT_GT(largest, 0.0);
+    for (const auto& [k, v] : a.items()) {
+      if (!v.is_number()) {
+        EXPECT_EQ(v, b[k]) << k;
+        continue;
+      }
+      ASSERT_TRUE(b[k].is_number()) << k;
+      EXPECT_NEAR(b[k].get<double>(), v.get<double>(), 1e-6 * largest) << k;
+    }
+  }
+#endif
+
   // A copy killed in the middle of its run (SIGKILL: its claims end with it): the other copy makes that run too
   // (from the killed copy's last whole wingbeat, when one was kept) and the table is still the lone run's.
   const fs::path survived = fs::path(path).parent_path() / "cfdcli_campaign_survived";
@@ -674,6 +723,42 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
   EXPECT_EQ(x["derivatives"]["nondimensional"], z["derivatives"]["nondimensional"]);
   EXPECT_EQ(x["cfd"]["floquet_longitudinal"], z["cfd"]["floquet_longitudinal"]);
 }
+
+#if defined(FLAPSTAB_MPIEXEC) && defined(FLAPSTAB_HAVE_MPI)
+// --ranks-per-flow (the CFD model's flows over groups of ranks) where it cannot apply: bad input with one message
+// (the job's rank 0, or each group's rank 0) naming the option or the case key, status 2, nothing written.
+TEST(CfdCli, RanksPerFlowWhereItCannotApplyIsBadInput) {
+  const std::string cfd_case = write_temp("cfdcli_groups_bad.toml", small_cfd_analysis());
+  const std::string fpm_case = write_temp("cfdcli_groups_fpm.toml", small_cfd_analysis() + "\n[aero.cfd.fpm]\n");
+  const std::string qs_case = write_temp("cfdcli_groups_qs.toml", testing::valid_cfd_case_text());
+  const fs::path dir = fs::path(cfd_case).parent_path() / "cfdcli_groups_bad";
+  struct Case {
+    const char* label;
+    std::string prefix, args, says;
+    int messages;
+  };
+  const std::string mpi = "OMP_NUM_THREADS=1 " + mpiexec(4);
+  const std::string out = " -o " + dir.string();
+  for (const Case& c : std::vector<Case>{
+           {"groups that are not whole", mpi, "derivatives " + cfd_case + out + " --ranks-per-flow 3",
+            "3 ranks per flow, but mpiexec started 4 processes", 1},
+           {"no mpiexec", "", "analyze " + cfd_case + out + " --ranks-per-flow 2", "need processes started by mpiexec",
+            1},
+           {"more ranks than the grid takes", "OMP_NUM_THREADS=1 " + mpiexec(8),
+            "trim-hover " + cfd_case + out + " --ranks-per-flow 8", "'--ranks-per-flow': 8 ranks cannot share this grid",
+            1},
+           {"the quasi-steady model", mpi, "derivatives " + qs_case + out + " --ranks-per-flow 2", "'aero.model'", 2},
+           {"force partitioning", mpi, "stability " + fpm_case + out + " --ranks-per-flow 2",
+            "'aero.cfd.fpm.enabled'", 2}}) {
+    fs::remove_all(dir);
+    const CfdRunOutput r = run_flapstab(c.prefix, c.args);
+    EXPECT_EQ(r.status, 2) << c.label << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << c.label << "\n" << r.err;
+    EXPECT_EQ(occurrences(r.err, "flapstab: error"), c.messages) << c.label << "\n" << r.err;  // a rank 0 per group
+    EXPECT_FALSE(fs::exists(dir)) << c.label;
+  }
+}
+#endif
 
 TEST(CfdCli, HelpDescribesTheOptions) {
   const CfdRunOutput r = flapstab_cfd("--help");

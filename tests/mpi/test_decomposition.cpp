@@ -10,11 +10,13 @@
 #include <gtest/gtest.h>
 #include <mpi.h>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 #include "cfd/navier_stokes/poisson.hpp"
 #include "cfd/navier_stokes/poisson_hypre.hpp"
@@ -139,6 +141,24 @@ TEST(Decomposition, RankZerosFailureIsEveryRanks) {
     EXPECT_EQ(std::string(e.what()), D.rank() == 0 ? "disk full" : "rank 0 failed (its message says why)");
   }
   EXPECT_EQ(D.max(1.0), 1.0);  // and the ranks are still in step
+}
+
+// from_root gives every rank rank 0's answer (a file it read, a lock it took), also after rank 0 took its time (the
+// others wait in a non-blocking broadcast), and a long text whole.
+TEST(Decomposition, RankZerosAnswerIsEveryRanks) {
+  const Decomposition& D = *world();
+  const std::string answer = from_root(D, [&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    return "rank " + std::to_string(D.rank()) + " read it";
+  });
+  EXPECT_EQ(answer, "rank 0 read it");
+  const std::string empty = from_root(D, [] { return std::string(); });
+  EXPECT_EQ(empty, "");
+  const std::string longer = from_root(D, [&] { return std::string(1 << 20, char('a' + D.rank())); });
+  EXPECT_EQ(longer, std::string(1 << 20, 'a'));
+  EXPECT_THROW(from_root(D, []() -> std::string { throw flapstab::InputError("f.toml", "key", "bad"); }),
+               flapstab::InputError);
+  EXPECT_EQ(D.max(1.0), 1.0);
 }
 
 TEST(Decomposition, VCycleIsBitForBitTheSingleRankOne) {
