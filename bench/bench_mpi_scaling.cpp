@@ -5,7 +5,8 @@
 // Rank 0 prints the whole-problem cost per cell and step, the pressure iterations per step and what each rank
 // communicated per step (exchanges, bytes, reductions), the figures of the cost model in docs/theory/scale-out.md,
 // each rank's wall time in communication per step, the time the same messages take alone (every rank ready: the
-// transfers without the waits), and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
+// transfers without the waits), the interconnect's latency and bandwidth (ping-pong) and what they make of the step's
+// exchanges, and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
 // ranks, alternated, e.g.
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling 96 20
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling hawkmoth 20
@@ -13,6 +14,7 @@
 // steps come first.
 #include <mpi.h>
 #include <omp.h>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -95,6 +97,63 @@ int main(int argc, char** argv) {
       if (rep > 0) transfer += (MPI_Wtime() - w0) / 3;
     }
   }
+  // The interconnect's own figures for the cost model (docs/theory/scale-out.md): alpha, the one-way time of an 8-byte
+  // message between ranks 0 and 1 (half a ping-pong round trip), beta, the one-way bandwidth of 4 MiB messages, and
+  // an 8-byte all-reduce over all ranks; best of 5 rounds of 200 (alpha, all-reduce) or 10 (beta) each. With them the
+  // model prices the step's exchanges, messages x alpha + bytes / beta (each way), beside the replay above.
+  double alpha = 0, beta = 0, beta_exchange = 0, allreduce = 0, modelled = 0;
+  if (dec->size() > 1) {
+    auto pingpong = [&](std::size_t bytes, int reps) {
+      std::vector<char> buf(bytes, 1);
+      double best = 1e30;
+      for (int round = 0; round < 5; ++round) {
+        MPI_Barrier(MPI_COMM_WORLD);
+        const double w0 = MPI_Wtime();
+        for (int r = 0; r < reps; ++r) {
+          if (dec->rank() == 0) {
+            MPI_Send(buf.data(), int(bytes), MPI_BYTE, 1, 9, MPI_COMM_WORLD);
+            MPI_Recv(buf.data(), int(bytes), MPI_BYTE, 1, 9, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+          } else if (dec->rank() == 1) {
+            MPI_Recv(buf.data(), int(bytes), MPI_BYTE, 0, 9, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Send(buf.data(), int(bytes), MPI_BYTE, 0, 9, MPI_COMM_WORLD);
+          }
+        }
+        best = std::min(best, (MPI_Wtime() - w0) / (2.0 * reps));
+      }
+      return best;  // one way
+    };
+    alpha = pingpong(8, 200);
+    const std::size_t big = std::size_t(4) << 20;
+    beta = double(big) / (pingpong(big, 10) - alpha);
+    // A halo exchange sends and receives at once: ranks 0 and 1 swap 4 MiB (MPI_Sendrecv), the bandwidth each
+    // direction gets when both move (on one machine they share its memory; a full-duplex link gives each its own).
+    {
+      std::vector<char> out(big, 1), in(big);
+      double best_x = 1e30;
+      for (int round = 0; round < 5; ++round) {
+        MPI_Barrier(MPI_COMM_WORLD);
+        const double w0 = MPI_Wtime();
+        for (int r = 0; r < 10; ++r)
+          if (dec->rank() < 2)
+            MPI_Sendrecv(out.data(), int(big), MPI_BYTE, 1 - dec->rank(), 11, in.data(), int(big), MPI_BYTE,
+                         1 - dec->rank(), 11, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        best_x = std::min(best_x, (MPI_Wtime() - w0) / 10);
+      }
+      beta_exchange = double(big) / (best_x - alpha);
+    }
+    double best = 1e30;
+    for (int round = 0; round < 5; ++round) {
+      double v = 1;
+      MPI_Barrier(MPI_COMM_WORLD);
+      const double w0 = MPI_Wtime();
+      for (int r = 0; r < 200; ++r) MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+      best = std::min(best, (MPI_Wtime() - w0) / 200);
+    }
+    allreduce = best;
+    // rank 0's step: each exchange sends and receives one plane message per cut (one cut on an end rank)
+    modelled = double(after.exchanges - before.exchanges) / steps * alpha +
+               (after.bytes - before.bytes) / steps / beta_exchange;
+  }
   const std::string label = moth ? "hawkmoth " + std::to_string(g.shape().nx) + "x" + std::to_string(g.shape().ny) +
                                        "x" + std::to_string(g.shape().nz)
                                  : std::to_string(n) + "^3";
@@ -102,7 +161,9 @@ int main(int argc, char** argv) {
     std::printf("ranks %d threads %d cells %s steps %d: %.1f ns per cell step (whole grid), %.2f s, %.2f pressure "
                 "iterations per step, kinetic energy %.12e%s; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
                 "%.1f gathers, %.1f reductions; slab of %d planes; ms per step in communication, by rank: %s "
-                "(of %.0f; the transfers alone %.1f)\n",
+                "(of %.0f; the transfers alone %.1f); interconnect: alpha %.2f us, beta %.2f GB/s one way, "
+                "%.2f GB/s each way in an exchange, all-reduce %.2f us; the step's exchanges at these figures (messages "
+                "x alpha + bytes / exchange beta) %.1f ms\n",
                 dec->size(), omp_get_max_threads(), label.c_str(), steps, seconds * 1e9 / (double(steps) * g.cells()),
                 seconds,
                 double(cycles) / steps, energy,
@@ -112,7 +173,8 @@ int main(int argc, char** argv) {
                 double(after.exchanges - before.exchanges) / steps,
                 (after.bytes - before.bytes) / steps, double(after.gathers - before.gathers) / steps,
                 double(after.reductions - before.reductions) / steps, s.slab().n, comm_text.c_str(),
-                1e3 * seconds / steps, 1e3 * transfer);
+                1e3 * seconds / steps, 1e3 * transfer, 1e6 * alpha, beta / 1e9, beta_exchange / 1e9,
+                1e6 * allreduce, 1e3 * modelled);
   MPI_Finalize();
   return 0;
 }
