@@ -607,6 +607,7 @@ CfdSettings parse_cfd(Section s) {
   d.surfaces_per_cycle = s.integer_or("surfaces_per_cycle", d.surfaces_per_cycle, 0, 100000);
   d.checkpoints_per_cycle = s.integer_or("checkpoints_per_cycle", d.checkpoints_per_cycle, 0, 100000);
   d.field_precision = s.string("field_precision", false, d.field_precision, {"float64", "float32"});
+  d.field_files = s.string("field_files", false, d.field_files, {"whole", "per-rank"});
   d.loads = s.string("loads", false, d.loads, {"exchange", "surface"});
   d.pressure_solver = s.string("pressure_solver", false, d.pressure_solver, {"multigrid", "hypre"});
   // Mesh sizes: the level sets are built from the meshes before the first step, at a cost that grows with the

@@ -82,6 +82,9 @@ struct CfdSettings {
   int surfaces_per_cycle = 8;       // surface outputs per wingbeat (0: none)
   int checkpoints_per_cycle = 1;    // checkpoints per wingbeat (0: only at the end)
   std::string field_precision = "float32";  // "float64" | "float32"
+  // Over MPI ranks: "whole" (rank 0 gathers the grid into one file per output) | "per-rank" (each rank writes its own
+  // planes, rank 0 the XDMF over them; for grids too large for one node's memory)
+  std::string field_files = "whole";
   std::string loads = "exchange";   // "exchange" (momentum exchange of the forcing) | "surface" (surface integral)
   std::string pressure_solver = "multigrid";  // "multigrid" (the project's) | "hypre" (hypre's PCG + SMG, if built)
   int body_divisions = 16;          // body mesh: cube-sphere divisions per face edge (12 n^2 triangles)

@@ -349,9 +349,34 @@ void RectilinearAxes::check() const {
 std::string xdmf_output(const FieldWriter::Record& r) { return xdmf_head + xdmf_grid(r, "    ") + xdmf_tail; }
 
 std::string xdmf_series(const std::vector<FieldWriter::Record>& records) {
+  std::vector<std::vector<FieldWriter::Record>> outputs;
+  for (const auto& r : records) outputs.push_back({r});
+  return xdmf_series(outputs);
+}
+
+namespace {
+// One output: its grid, or the spatial collection of its pieces.
+std::string xdmf_pieces(const std::vector<FieldWriter::Record>& pieces, const std::string& indent) {
+  if (pieces.size() == 1) return xdmf_grid(pieces.front(), indent);
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out, "{}<Grid Name=\"step_{}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n", indent,
+                 pieces.front().step);
+  fmt::format_to(out, "{}  <Time Value=\"{}\"/>\n", indent, pieces.front().time);
+  for (const auto& r : pieces) s += xdmf_grid(r, indent + "  ");
+  fmt::format_to(out, "{}</Grid>\n", indent);
+  return s;
+}
+}  // namespace
+
+std::string xdmf_output(const std::vector<FieldWriter::Record>& pieces) {
+  return xdmf_head + xdmf_pieces(pieces, "    ") + xdmf_tail;
+}
+
+std::string xdmf_series(const std::vector<std::vector<FieldWriter::Record>>& outputs) {
   std::string s = xdmf_head;
   s += "    <Grid Name=\"time_series\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const auto& r : records) s += xdmf_grid(r, "      ");
+  for (const auto& o : outputs) s += xdmf_pieces(o, "      ");
   s += "    </Grid>\n";
   return s + xdmf_tail;
 }
@@ -361,26 +386,58 @@ FieldWriter::FieldWriter(std::string directory, std::string name, RectilinearAxe
   check_name(name_, "field output");
   axes_.check();
   fs::create_directories(directory_);
-  const std::regex pattern(std::regex_replace(name_, std::regex(R"([.\-])"), R"(\$&)") + R"(_(\d+)\.h5)");
+  // Whole outputs (<name>_<step>.h5) and pieces (<name>_<step>.p<piece>.h5, a run over MPI ranks); a step written
+  // both ways (restarts on another number of ranks) keeps the last file found of the whole kind, else its pieces.
+  const std::regex pattern(std::regex_replace(name_, std::regex(R"([.\-])"), R"(\$&)") + R"(_(\d+)(\.p(\d+))?\.h5)");
+  std::map<std::int64_t, std::map<int, Record>> pieces;
   QuietErrors quiet;
   for (const auto& entry : fs::directory_iterator(directory_)) {
     const std::string file = entry.path().filename().string();
-    if (!entry.is_regular_file() || !std::regex_match(file, pattern)) continue;
+    std::smatch m;
+    if (!entry.is_regular_file() || !std::regex_match(file, m, pattern)) continue;
     try {
       Record r = read_record(directory_, file);
-      series_[r.step] = std::move(r);
+      if (m[2].matched) pieces[r.step][std::stoi(m[3].str())] = std::move(r);
+      else series_[r.step] = {std::move(r)};
     } catch (const std::exception&) {
       // Not one of ours (or unreadable): it stays out of the series.
     }
   }
+  for (auto& [step, by_piece] : pieces) {
+    if (series_.count(step)) continue;
+    std::vector<Record> v;
+    for (auto& [k, r] : by_piece) v.push_back(std::move(r));
+    series_[step] = std::move(v);
+  }
+}
+
+std::string FieldWriter::piece_file_name(const std::string& name, std::int64_t step, int piece) {
+  return fmt::format("{}_{:06d}.p{:04d}.h5", name, step, piece);
 }
 
 std::string FieldWriter::series_path() const { return (fs::path(directory_) / (name_ + ".xmf")).string(); }
 
 std::string FieldWriter::write(double time, std::int64_t step, const std::vector<CellField>& fields) {
+  Record r = write_file(output_file_name(name_, step), time, step, fields);
+  add_output({r});
+  return (fs::path(directory_) / r.file).string();
+}
+
+FieldWriter::Record FieldWriter::write_piece(double time, std::int64_t step, const std::vector<CellField>& fields,
+                                             int piece) {
+  return write_file(piece_file_name(name_, step, piece), time, step, fields);
+}
+
+void FieldWriter::add_pieces(std::vector<Record> pieces) {
+  if (pieces.empty()) throw std::invalid_argument("FieldWriter::add_pieces: no pieces");
+  add_output(std::move(pieces));
+}
+
+FieldWriter::Record FieldWriter::write_file(const std::string& file, double time, std::int64_t step,
+                                            const std::vector<CellField>& fields) {
   const auto n = axes_.cells();
   Record r;
-  r.file = output_file_name(name_, step);
+  r.file = file;
   r.time = time;
   r.step = step;
   r.cells = n;
@@ -425,13 +482,18 @@ std::string FieldWriter::write(double time, std::int64_t step, const std::vector
     }
   });
 
+  return r;
+}
+
+void FieldWriter::add_output(std::vector<Record> pieces) {
+  const std::int64_t step = pieces.front().step;
+  const std::string xmf = (fs::path(directory_) / output_file_name(name_, step)).replace_extension(".xmf").string();
+  write_file_atomic(xmf, xdmf_output(pieces));
   series_.erase(series_.upper_bound(step), series_.end());
-  series_[step] = r;
-  write_file_atomic((fs::path(directory_) / (r.file.substr(0, r.file.size() - 3) + ".xmf")).string(), xdmf_output(r));
-  std::vector<Record> all;
-  for (const auto& [s, rec] : series_) all.push_back(rec);
+  series_[step] = std::move(pieces);
+  std::vector<std::vector<Record>> all;
+  for (const auto& [s, output] : series_) all.push_back(output);
   write_file_atomic(series_path(), xdmf_series(all));
-  return path;
 }
 
 namespace {

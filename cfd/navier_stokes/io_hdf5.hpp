@@ -51,6 +51,15 @@ class FieldWriter {
   std::string write(double time, std::int64_t step, const std::vector<CellField>& fields);
   std::string series_path() const;
 
+  // One output in pieces (a grid split over MPI ranks, each rank writing its own planes): each piece's writer, on
+  // its own axes, writes <name>_<step>.p<piece>.h5 (write_piece, no XDMF); then one writer adds the pieces' records
+  // (the piece files' names, their cells) to the series as one output (add_pieces): its XDMF is a spatial
+  // collection of the pieces, which ParaView opens as one data set (a multiblock).
+  struct Record;
+  Record write_piece(double time, std::int64_t step, const std::vector<CellField>& fields, int piece);
+  void add_pieces(std::vector<Record> pieces);
+  static std::string piece_file_name(const std::string& name, std::int64_t step, int piece);
+
   // What one output file holds; public for the tests and the docs' examples.
   struct Record {
     std::string file;  // .h5 file name, relative to the directory
@@ -69,7 +78,9 @@ class FieldWriter {
   std::string directory_, name_;
   RectilinearAxes axes_;
   FieldPrecision precision_;
-  std::map<std::int64_t, Record> series_;  // by step
+  Record write_file(const std::string& file, double time, std::int64_t step, const std::vector<CellField>& fields);
+  void add_output(std::vector<Record> pieces);  // one record, or the pieces of one output
+  std::map<std::int64_t, std::vector<Record>> series_;  // by step: the output's file, or its pieces
 };
 
 // One field read back from a field file (post-processing and tests), as float64 in the file's layout:
@@ -88,6 +99,10 @@ RectilinearAxes read_axes(const std::string& path);
 // temporal collection of outputs.
 std::string xdmf_output(const FieldWriter::Record& r);
 std::string xdmf_series(const std::vector<FieldWriter::Record>& records);
+// The same for outputs in pieces (FieldWriter::write_piece): one piece is the output itself, several a spatial
+// collection of them.
+std::string xdmf_output(const std::vector<FieldWriter::Record>& pieces);
+std::string xdmf_series(const std::vector<std::vector<FieldWriter::Record>>& outputs);
 
 // ---- Checkpoints ---------------------------------------------------------------------------------
 

@@ -152,9 +152,63 @@ RectilinearAxes rectilinear(const Grid& g) {
   return a;
 }
 
+void FieldOutput::write_pieces(const Simulation& sim) {
+  const Solver& sv = sim.solver();
+  const Decomposition& D = sv.decomposition();
+  const Slab& sl = sv.slab();
+  // The slab widened by one plane at each cut: the vorticity's central differences at the slab's end planes read the
+  // cell beyond, whose centred w reads the face beyond that (the window's ghost plane). Each piece is then the whole
+  // grid's file's planes.
+  const int depth = 1, lo = sl.cut_lo ? depth : 0;
+  const Slab ws{sl.offset - lo, sl.n + depth * (int(sl.cut_lo) + int(sl.cut_hi)), sl.cut_lo, sl.cut_hi};
+  const Grid wg = sim.whole_grid().slice_z(ws);
+  VectorField wu(wg.shape());
+  Field wp(wg.shape());
+  for (int d = 0; d < 3; ++d) D.widen(sv.velocity()[d], sl, depth, wu[d]);
+  D.widen(sv.pressure(), sl, depth, wp);
+  const FlowFields ff = flow_fields(wg, wu, wp, sim.plan().rho);
+  const std::vector<double> solid = sim.solid_mask();  // the slab's own cells
+  const std::ptrdiff_t skip = std::ptrdiff_t(lo) * wg.shape().nx * wg.shape().ny;  // the window's plane below
+  std::vector<CellField> fields = ff.fields();
+  for (CellField& f : fields)
+    for (CellArray& a : f.components) a.data += skip;
+  fields.push_back(CellField{"solid", "1", {CellArray{solid.data()}}});
+  // Every rank writes its piece; a failure on any is every rank's (none goes on into the next collective call).
+  FieldWriter::Record mine;
+  std::string why;
+  try {
+    RectilinearAxes axes = rectilinear(sv.grid());  // the slab's planes
+    if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
+      writer_.emplace(dir_, "fields", axes, precision_);
+      axes_ = std::move(axes);
+    }
+    mine = writer_->write_piece(sim.time(), sim.step(), fields, D.rank());
+  } catch (const std::exception& e) {
+    why = e.what();
+  }
+  if (const int failed = int(D.max(why.empty() ? 0.0 : D.rank() + 1.0)); failed > 0)
+    throw OutputError(why.empty() ? fmt::format("rank {} could not write its piece of the field output at step {}",
+                                                failed - 1, sim.step())
+                                  : why);
+  on_root(D, [&] {
+    std::vector<FieldWriter::Record> pieces;
+    for (int r = 0; r < D.size(); ++r) {
+      FieldWriter::Record p = mine;
+      p.file = FieldWriter::piece_file_name("fields", sim.step(), r);
+      p.cells[2] = std::size_t(sv.slabs()[std::size_t(r)].n);
+      pieces.push_back(std::move(p));
+    }
+    writer_->add_pieces(std::move(pieces));
+  });
+}
+
 void FieldOutput::write(const Simulation& sim) {
   const Solver& sv = sim.solver();
   const Decomposition& D = sv.decomposition();
+  if (per_rank_ && D.distributed() && !sim.whole_grid().axis[2].periodic) {
+    write_pieces(sim);
+    return;
+  }
   VectorField gathered_u;  // over ranks: the whole grid's fields on rank 0
   Field gathered_p;
   if (D.distributed()) gather_flow(sv, gathered_u, gathered_p);

@@ -104,12 +104,17 @@ class PerCycleOutput : public StepObserver {
 // run's gathered on rank 0, which writes them).
 class FieldOutput final : public PerCycleOutput {
  public:
-  FieldOutput(std::string directory, int per_cycle, FieldPrecision precision)
-      : PerCycleOutput(std::move(directory), per_cycle), precision_(precision) {}
+  // per_rank: over MPI ranks each rank writes its own planes (a piece file, fields_STEP.pRANK.h5) and rank 0 the XDMF
+  // over the pieces, instead of rank 0 gathering the whole grid (a z axis that is not periodic; a periodic one is
+  // gathered).
+  FieldOutput(std::string directory, int per_cycle, FieldPrecision precision, bool per_rank = false)
+      : PerCycleOutput(std::move(directory), per_cycle), precision_(precision), per_rank_(per_rank) {}
   void write(const Simulation& sim) override;
 
  private:
+  void write_pieces(const Simulation& sim);
   FieldPrecision precision_;
+  bool per_rank_ = false;
   RectilinearAxes axes_;  // the writer's grid
   std::optional<FieldWriter> writer_;
 };

@@ -301,7 +301,8 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   if (ck) checkpoints.set_last(res.restarted_from, start_step);
   const double weight = c.insect.weight();
   FieldOutput fields(o.directory + "/fields", s.fields_per_cycle,
-                     s.field_precision == "float32" ? FieldPrecision::float32 : FieldPrecision::float64);
+                     s.field_precision == "float32" ? FieldPrecision::float32 : FieldPrecision::float64,
+                     s.field_files == "per-rank");
   SurfaceOutput surfaces(o.directory + "/surfaces", s.surfaces_per_cycle);
   ProgressLog progress(log, o.progress_seconds, total_steps, t_end);
   std::vector<StepObserver*> observers = {&csv, &progress};

@@ -521,6 +521,47 @@ TEST_F(NsIo, FieldSeriesContinuesAfterARestart) {
   EXPECT_EQ(times, (std::vector<double>{0.0, 0.01, 0.015}));
 }
 
+// An output in pieces (a run over MPI ranks with field_files = "per-rank"): a file per piece on its own planes and no
+// XDMF of its own; one XDMF for the output, a spatial collection of the pieces; and a restarted writer (here one
+// process writing whole files) keeps that output in the series, a collection beside the whole outputs.
+TEST_F(NsIo, FieldOutputInPiecesIsOneSpatialCollection) {
+  const FieldCase fc(0);
+  RectilinearAxes lower = fc.axes, upper = fc.axes;
+  lower.z = {0.0, 0.3};
+  upper.z = {0.3, 0.5, 0.6};
+  {
+    FieldWriter a(dir_.string(), "fields", lower), b(dir_.string(), "fields", upper);
+    std::vector<FieldWriter::Record> pieces{a.write_piece(0.01, 10, fc.fields(), 0),
+                                            b.write_piece(0.01, 10, fc.fields(), 1)};
+    EXPECT_EQ(pieces[0].file, "fields_000010.p0000.h5");
+    EXPECT_EQ(pieces[1].cells[2], 2u);
+    EXPECT_FALSE(fs::exists(path("fields_000010.p0000.xmf")));
+    a.add_pieces(pieces);
+  }
+  const Xml one = parse_xml_file(path("fields_000010.xmf"));
+  const auto grids_here = one.all("Grid");  // the collection, then its pieces
+  ASSERT_EQ(grids_here.size(), 3u);
+  EXPECT_EQ(grids_here[0]->attr.at("CollectionType"), "Spatial");
+  EXPECT_EQ(std::stod(grids_here[0]->all("Time").front()->attr.at("Value")), 0.01);
+  const char* dims[2] = {"2 5 6", "3 5 6"};  // nodes, z first: 1 and 2 cells
+  for (int k = 0; k < 2; ++k) {
+    const Xml& piece = *grids_here[std::size_t(k) + 1];
+    EXPECT_EQ(piece.attr.at("GridType"), "Uniform");
+    EXPECT_EQ(piece.one("Topology").attr.at("Dimensions"), dims[k]);
+    const std::string file = FieldWriter::piece_file_name("fields", 10, k);
+    EXPECT_NE(piece.all("Attribute")[0]->one("DataItem").text.find(file + ":/fields/pressure"), std::string::npos);
+  }
+  EXPECT_EQ(read_field(path("fields_000010.p0001.h5"), "pressure").cells, (std::array<std::size_t, 3>{5, 4, 2}));
+
+  FieldWriter restarted(dir_.string(), "fields", fc.axes);
+  restarted.write(0.02, 20, fc.fields());
+  const Xml series = parse_xml_file(restarted.series_path());
+  const auto grids = series.all("Grid");  // the time series, the collection, its 2 pieces, step 20
+  ASSERT_EQ(grids.size(), 5u);
+  EXPECT_EQ(grids[1]->attr.at("CollectionType"), "Spatial");
+  expect_xdmf_grid(*grids[4], "fields_000020.h5", 0.02, 8);
+}
+
 TEST_F(NsIo, SinglePrecisionFields) {
   const FieldCase fc(0.9);
   FieldWriter writer(dir_.string(), "f", fc.axes, FieldPrecision::float32);

@@ -13,8 +13,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <utility>
@@ -605,6 +607,70 @@ TEST(Decomposition, CfdRunOverRanksWritesTheOneProcessRunsFiles) {
   std::printf("[ rank 0 ] flapstab cfd's run over %d ranks (6 steps, restart, 4 steps) against one process: "
               "forces.csv %.3g of %.3g N, checkpoint velocity %.3g of %.3g\n",
               world()->size(), df, f, du, scale);
+}
+
+// field_files = "per-rank": each rank writes its own planes (fields_STEP.pRANK.h5) and rank 0 the XDMF over them (a
+// spatial collection). The pieces put together along z are the one-process run's field file, every field to 1e-9 of
+// its scale (the vorticity and Q criterion too: their central differences at a slab's end planes read the cell
+// beyond, which the piece takes from a window one plane wider); the series lists the pieces.
+TEST(Decomposition, PerRankFieldFilesPutTogetherAreTheWholeFile) {
+  namespace fs = std::filesystem;
+  const std::string keys = "fields_per_cycle = 40\nsurfaces_per_cycle = 0\nfield_precision = \"float64\"\n";
+  const Case whole_case = moth_case(keys), piece_case = moth_case(keys + "field_files = \"per-rank\"\n");
+  const std::string ranks = shared_path("pieces"), one = own_path("pieces_one");
+  if (world()->rank() == 0) fs::remove_all(ranks);
+  fs::remove_all(one);
+  CfdRunOptions o;
+  o.pressure_rtol = 1e-10;
+  o.handle_signals = false;
+  o.directory = one;
+  o.steps = 2;
+  run_cfd(whole_case, whole_case.kinematics, BodyMotion{}, o);
+  o.directory = ranks;
+  o.decomposition = world();
+  MPI_Barrier(MPI_COMM_WORLD);
+  run_cfd(piece_case, piece_case.kinematics, BodyMotion{}, o);
+  if (world()->rank() != 0) return;
+  const std::string step = "000002";
+  EXPECT_FALSE(fs::exists(ranks + "/fields/fields_" + step + ".h5"));
+  const RectilinearAxes axes = read_axes(one + "/fields/fields_" + step + ".h5");
+  std::vector<double> z{axes.z.front()};
+  std::vector<std::string> files;
+  for (int r = 0; r < world()->size(); ++r) {
+    files.push_back(ranks + "/fields/" + FieldWriter::piece_file_name("fields", 2, r));
+    const RectilinearAxes a = read_axes(files.back());
+    EXPECT_EQ(a.x, axes.x);
+    EXPECT_EQ(a.y, axes.y);
+    EXPECT_EQ(a.z.front(), z.back()) << "piece " << r << " starts where the one below ends";
+    z.insert(z.end(), a.z.begin() + 1, a.z.end());
+  }
+  EXPECT_EQ(z, axes.z);
+  for (const char* name : {"velocity", "pressure", "vorticity", "q_criterion", "solid"}) {
+    const StoredField w = read_field(one + "/fields/fields_" + step + ".h5", name);
+    std::vector<double> joined;
+    for (const std::string& f : files) {
+      const StoredField p = read_field(f, name);
+      EXPECT_EQ(p.components, w.components) << name;
+      joined.insert(joined.end(), p.values.begin(), p.values.end());  // [z][y][x]: the pieces follow along z
+    }
+    ASSERT_EQ(joined.size(), w.values.size()) << name;
+    double diff = 0, big = 0;
+    for (std::size_t n = 0; n < joined.size(); ++n) {
+      diff = std::max(diff, std::abs(joined[n] - w.values[n]));
+      big = std::max(big, std::abs(w.values[n]));
+    }
+    EXPECT_GT(big, 0) << name;
+    EXPECT_LE(diff, 1e-9 * big) << name;
+    std::printf("[ rank 0 ] %s from %d pieces against the whole file: %.3g of %.3g\n", name, world()->size(), diff,
+                big);
+  }
+  std::ifstream in(ranks + "/fields/fields.xmf");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string series = ss.str();
+  EXPECT_NE(series.find("CollectionType=\"Spatial\""), std::string::npos) << series;
+  for (const std::string& f : files)
+    EXPECT_NE(series.find(fs::path(f).filename().string() + ":/fields/vorticity"), std::string::npos) << f;
 }
 
 // Groups of ranks in one job, each running its own flow over its own ranks (Decomposition::split): with 4 ranks or
