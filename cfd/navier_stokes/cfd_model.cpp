@@ -476,7 +476,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       };
       PeriodicRun pr;
       try {
-        pr = run_until_periodic(sim, st->hover_settings, log_, "  hover ", std::move(earlier), keep);
+        pr = run_until_periodic(sim, st->hover_settings, ranks_->rank() == 0 ? log_ : nullptr, "  hover ",
+                                std::move(earlier), keep);
       } catch (const StepFailure& e) {
         throw SolveError(fmt::format("cfd model: the hover from rest diverged at step {} (t/T = {:.4f}): {}; lower the "
                                      "time step (aero.cfd.steps_per_cycle)", e.step(), e.time() / p.period, e.why()));

@@ -77,8 +77,8 @@ class CfdModel final : public AeroModel {
   // Runs every flow over these ranks (a group of an MPI job, Decomposition::split): each rank holds its slab of the
   // grid, and every rank of the group must call the same methods in the same order with the same arguments; rank 0
   // reads and writes the cache and takes its locks for the group (another group, or another process, sharing the
-  // cache directory is a campaign member like any). The log is rank 0's: give the others a null log. Force
-  // partitioning ([aero.cfd.fpm]) is refused over several ranks. Call before the first run.
+  // cache directory is a campaign member like any). Only rank 0 writes to the log. Force partitioning
+  // ([aero.cfd.fpm]) over several ranks is bad input (InputError). Call before the first run.
   void run_over(std::shared_ptr<const Decomposition> ranks);
 
   // Further kinematics the shared grid must hold (e.g. a trim's parameter bounds); call before the first run.
