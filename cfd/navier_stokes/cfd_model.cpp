@@ -455,6 +455,11 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                       p.sponge_width > 0 ? fmt::format("; sponge layer {:.3g} m deep along the faces", p.sponge_width)
                                          : std::string()));
       Simulation sim(st->base_case, kin, BodyMotion{}, p, ranks.options());
+      if (ranks_->distributed()) {  // each flow of the model over the group's ranks (every rank calls slabs())
+        std::string planes;
+        for (const Slab& sl : sim.solver().slabs()) planes += (planes.empty() ? "" : " + ") + std::to_string(sl.n);
+        say(fmt::format("  every flow over {} MPI ranks: z slabs of {} planes\n", ranks_->size(), planes));
+      }
       // A hover interrupted (killed) resumes from its last whole wingbeat: its state and its wingbeats so far are kept
       // after every wingbeat beside hover.h5, and removed when it ends.
       const PartialRun partial{file("hover.partial.json"), file("hover.partial.h5")};
