@@ -436,7 +436,8 @@ int run_in_flow_groups(CommandOptions o, const std::string& name, int (*command)
   if (n == 1 && k > 1)
     throw InputError("--ranks-per-flow", "",
                      fmt::format("{} ranks per flow need processes started by mpiexec; this is one process", k),
-                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k, k));
+                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k,
+                                 k));
   std::shared_ptr<const ns::Decomposition> job;
   try {
     job = ns::Decomposition::launched();
@@ -447,7 +448,8 @@ int run_in_flow_groups(CommandOptions o, const std::string& name, int (*command)
     if (job->rank() != 0) return 2;  // rank 0 says why
     throw InputError("--ranks-per-flow", "",
                      fmt::format("{} ranks per flow, but mpiexec started {} processes: the groups must be whole", k, n),
-                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k, k));
+                     fmt::format("mpiexec -n N flapstab {} ... --ranks-per-flow {}, with N a multiple of {}", name, k,
+                                 k));
   }
   o.flow_ranks = job->split(k);
   return run_over_ranks(*o.flow_ranks, "flapstab " + name, [&] { return command(o); });

@@ -6,8 +6,8 @@
 // communicated per step (exchanges, bytes, reductions), the figures of the cost model in docs/theory/scale-out.md,
 // each rank's wall time in communication per step, the time the same messages take alone (every rank ready: the
 // transfers without the waits), the interconnect's latency and bandwidth (ping-pong) and what they make of the step's
-// exchanges, and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2 threads and 2
-// ranks, alternated, e.g.
+// exchanges, and for the hawkmoth the summed wing and body force. bench/mpi_scaling.sh runs 1 rank with 1 and 2
+// threads and 2 ranks, alternated, e.g.
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling 96 20
 //   OMP_NUM_THREADS=1 mpiexec -n 2 --bind-to none ./build/bench/bench_mpi_scaling hawkmoth 20
 // Arguments: n (cells per side, default 96) or `hawkmoth`, timed steps (default 20); 5 (hawkmoth: 10) untimed
@@ -162,8 +162,8 @@ int main(int argc, char** argv) {
                 "iterations per step, kinetic energy %.12e%s; rank 0 per step: %.1f exchanges, %.3g bytes sent, "
                 "%.1f gathers, %.1f reductions; slab of %d planes; ms per step in communication, by rank: %s "
                 "(of %.0f; the transfers alone %.1f); interconnect: alpha %.2f us, beta %.2f GB/s one way, "
-                "%.2f GB/s each way in an exchange, all-reduce %.2f us; the step's exchanges at these figures (messages "
-                "x alpha + bytes / exchange beta) %.1f ms\n",
+                "%.2f GB/s each way in an exchange, all-reduce %.2f us; the step's exchanges at these figures "
+                "(messages x alpha + bytes / exchange beta) %.1f ms\n",
                 dec->size(), omp_get_max_threads(), label.c_str(), steps, seconds * 1e9 / (double(steps) * g.cells()),
                 seconds,
                 double(cycles) / steps, energy,

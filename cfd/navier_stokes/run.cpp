@@ -159,7 +159,8 @@ void check_ranks_share_grid(const CfdPlan& plan, int ranks, bool bodies, const s
                                g.axis[0].n, g.axis[1].n, g.axis[2].n, why),
                    most > 1 ? fmt::format("at most {} ranks for this grid, or more z cells (a finer grid, a taller "
                                           "domain)", most)
-                            : std::string("one process for this grid, or more z cells (a finer grid, a taller domain)"));
+                            : std::string("one process for this grid, or more z cells (a finer grid, a taller "
+                                          "domain)"));
 }
 
 CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion, const CfdRunOptions& o) {

@@ -658,7 +658,8 @@ TEST(CfdCli, CampaignOfTwoProcessesGivesTheSerialTable) {
     fs::remove_all(glogs);
     fs::create_directories(glogs);
     const std::string glaunch =
-        "OMP_NUM_THREADS=1 " + mpiexec(4) + "bash -c '" + FLAPSTAB_BINARY + " analyze " + path + " -o " + grouped.string() + " --ranks-per-flow 2 > /dev/null 2> " +
+        "OMP_NUM_THREADS=1 " + mpiexec(4) + "bash -c '" + FLAPSTAB_BINARY + " analyze " + path + " -o " +
+        grouped.string() + " --ranks-per-flow 2 > /dev/null 2> " +
         glogs.string() + "/rank${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-x}}.txt'";
     ASSERT_EQ(WEXITSTATUS(std::system(glaunch.c_str())), 0) << glaunch;
     const std::string g0 = slurp(glogs / "rank0.txt"), g2 = slurp(glogs / "rank2.txt");
@@ -727,7 +728,8 @@ TEST(CfdCli, RanksPerFlowWhereItCannotApplyIsBadInput) {
            {"no mpiexec", "", "analyze " + cfd_case + out + " --ranks-per-flow 2", "need processes started by mpiexec",
             1},
            {"more ranks than the grid takes", "OMP_NUM_THREADS=1 " + mpiexec(8),
-            "trim-hover " + cfd_case + out + " --ranks-per-flow 8", "'--ranks-per-flow': 8 ranks cannot share this grid",
+            "trim-hover " + cfd_case + out + " --ranks-per-flow 8",
+            "'--ranks-per-flow': 8 ranks cannot share this grid",
             1},
            {"the quasi-steady model", mpi, "derivatives " + qs_case + out + " --ranks-per-flow 2", "'aero.model'", 2},
            {"force partitioning", mpi, "stability " + fpm_case + out + " --ranks-per-flow 2",
