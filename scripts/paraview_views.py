@@ -67,9 +67,16 @@ def main(argv):
 
     from paraview import simple as pv  # imported here so that --help works without ParaView
 
-    fields = pv.OpenDataFile(fields_path)
+    reader = pv.OpenDataFile(fields_path)
+    fields = reader
+    with open(fields_path) as f:
+        in_pieces = 'CollectionType="Spatial"' in f.read()
+    if in_pieces:
+        # Written per rank ([aero.cfd] field_files = "per-rank"): one block per rank. Merged into one grid (coincident
+        # points merged), the cell-to-point averaging below sees both sides of a piece boundary, as in one file.
+        fields = pv.MergeBlocks(Input=reader)
     surfaces = pv.PVDReader(FileName=surfaces_path)
-    times = list(getattr(fields, "TimestepValues", []) or [])
+    times = list(getattr(reader, "TimestepValues", []) or [])
     if not isinstance(times, list):
         times = [times]
     t = args.time if args.time is not None else (times[-1] if times else 0.0)
