@@ -553,8 +553,9 @@ RectilinearAxes read_axes(const std::string& path) {
 
 // ---- Checkpoints ---------------------------------------------------------------------------------
 
-std::uint64_t checkpoint_checksum(std::span<const double> data) {
-  std::uint64_t h = fnv1a64_basis;
+namespace {
+// FNV-1a over the words of `data`, continuing from h (the checksum of what came before).
+std::uint64_t checksum_continued(std::uint64_t h, std::span<const double> data) {
   for (double v : data) {
     std::uint64_t w;
     std::memcpy(&w, &v, sizeof w);
@@ -562,6 +563,9 @@ std::uint64_t checkpoint_checksum(std::span<const double> data) {
   }
   return h;
 }
+}  // namespace
+
+std::uint64_t checkpoint_checksum(std::span<const double> data) { return checksum_continued(fnv1a64_basis, data); }
 
 void write_checkpoint(const std::string& path, const CheckpointHeader& header,
                       const std::vector<CheckpointArray>& arrays) {
@@ -679,6 +683,52 @@ void CheckpointReader::read(const std::string& name, std::span<double> out) cons
   if (has_attribute(set, "checksum")) {
     const std::string stored = read_string_attribute(set, "checksum", path_);
     const std::string now = fnv1a64_hex_of(checkpoint_checksum(out));
+    if (stored != now)
+      throw InputError(path_, name, "damaged: its data hash " + now + " differs from the checksum stored with it (" +
+                                        stored + ")",
+                       "an intact checkpoint");
+  }
+}
+
+void CheckpointReader::read_rows(const std::string& name, std::size_t first, std::span<double> out,
+                                 std::size_t chunk_values) const {
+  const auto dims = shape(name);
+  const std::size_t n = std::accumulate(dims.begin(), dims.end(), std::size_t(1), std::multiplies<>());
+  const std::size_t rows = dims.empty() ? 0 : dims[0], row = rows > 0 ? n / rows : 1;
+  if (out.size() % row != 0 || first + out.size() / row > rows)
+    throw InputError(path_, name, fmt::format("holds {} rows of {} values", rows, row),
+                     fmt::format("rows {} to {} (the grid of the run being restarted)", first,
+                                 first + out.size() / row));
+  QuietErrors quiet;
+  Id set(checked(H5Dopen2(file_, ("arrays/" + name).c_str(), H5P_DEFAULT), path_, "dataset " + name), H5Dclose);
+  Id type(H5Dget_type(set), H5Tclose);
+  if (H5Tget_class(type) != H5T_FLOAT || H5Tget_size(type) != 8)
+    throw InputError(path_, name, "is not a float64 array", "IEEE float64 values");
+  const bool summed = has_attribute(set, "checksum");
+  const std::size_t last = first + out.size() / row;  // one past
+  const std::size_t chunk = std::max<std::size_t>(1, chunk_values / row);
+  Id file_space(H5Dget_space(set), H5Sclose);
+  std::vector<double> buf;
+  std::uint64_t h = fnv1a64_basis;
+  for (std::size_t r0 = 0; r0 < rows; r0 += chunk) {
+    const std::size_t nr = std::min(chunk, rows - r0);
+    if (!summed && (r0 + nr <= first || r0 >= last)) continue;  // nothing to check, nothing wanted
+    buf.resize(nr * row);
+    std::vector<hsize_t> start(dims.size(), 0), count(dims.begin(), dims.end());
+    start[0] = r0;
+    count[0] = nr;
+    checked_status(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+                   path_, "hyperslab");
+    const hsize_t m = buf.size();
+    Id mem(H5Screate_simple(1, &m, nullptr), H5Sclose);
+    checked_status(H5Dread(set, H5T_NATIVE_DOUBLE, mem, file_space, H5P_DEFAULT, buf.data()), path_,
+                   "dataset " + name);
+    if (summed) h = checksum_continued(h, buf);
+    const std::size_t a = std::max(r0, first), b = std::min(r0 + nr, last);
+    if (a < b) std::copy_n(buf.data() + (a - r0) * row, (b - a) * row, out.data() + (a - first) * row);
+  }
+  if (summed) {
+    const std::string stored = read_string_attribute(set, "checksum", path_), now = fnv1a64_hex_of(h);
     if (stored != now)
       throw InputError(path_, name, "damaged: its data hash " + now + " differs from the checksum stored with it (" +
                                         stored + ")",

@@ -147,6 +147,12 @@ class CheckpointReader {
   // Arrays carry a checksum (checkpoint_checksum); a mismatch is an InputError naming the array.
   void read(const std::string& name, std::span<double> out) const;
   std::vector<double> read(const std::string& name) const;
+  // Rows first, first + 1, ... of an array along its first dimension (z planes of a padded field: a rank's slab with
+  // its ghost planes) into `out`, a whole number of rows. The array is streamed in chunks of whole rows of about
+  // `chunk_values` values (8 MB by default) and its whole checksum checked, so only `out` and one chunk are held: a
+  // rank restarts without the whole grid in memory.
+  void read_rows(const std::string& name, std::size_t first, std::span<double> out,
+                 std::size_t chunk_values = std::size_t(1) << 20) const;
   // Reads every array and checks its checksum (InputError for the first damaged one).
   void verify() const;
 

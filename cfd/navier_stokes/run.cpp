@@ -241,7 +241,9 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   so.pressure_rtol = o.pressure_rtol;
   Simulation sim(c, kin, motion, plan, so);
   if (ck) {
-    sim.restore(read_state(*ck, sim.whole_grid().shape()));  // every rank reads the whole state, keeps its planes
+    // Over ranks every rank reads its slab's planes only (the whole file streamed through for its checksums)
+    sim.restore(D.distributed() ? read_state(*ck, sim.whole_grid().shape(), sim.solver().slab())
+                                : read_state(*ck, sim.whole_grid().shape()));
     res.start_step = sim.step();
   }
   const long start_step = sim.step();

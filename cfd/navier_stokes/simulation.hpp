@@ -177,5 +177,8 @@ void write_state(const std::string& path, const SimulationState& s, std::map<std
                  std::map<std::string, std::string> text);
 // InputError naming the file and array for a checkpoint without the state or of another grid shape.
 SimulationState read_state(const CheckpointReader& ck, const Shape& shape);
+// The planes of a slab of the whole grid `whole` (its own planes and ghost planes, as Simulation::state() over ranks
+// holds them), read without the whole state in memory (CheckpointReader::read_rows; every array's checksum checked).
+SimulationState read_state(const CheckpointReader& ck, const Shape& whole, const Slab& slab);
 
 }  // namespace flapstab::ns

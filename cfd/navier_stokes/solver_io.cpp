@@ -89,7 +89,7 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
                                                    std::size_t(whole.nx + 2)})
       throw InputError(path, name, "array of another grid's shape",
                        fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
-  const SimulationState w = own_planes(read_state(ck, whole), s);
+  const SimulationState w = s.decomposition().distributed() ? read_state(ck, whole, s.slab()) : read_state(ck, whole);
   s.restore(w.time, w.u, w.p, w.phi, w.guess);
   SimulationState r;
   r.time = w.time;
