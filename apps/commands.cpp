@@ -27,18 +27,6 @@ namespace flapstab {
 
 namespace {
 
-// The ranks each CFD flow of the command runs over (--ranks-per-flow; null without), after checking that the case's
-// model is the CFD one.
-std::shared_ptr<const ns::Decomposition> flow_ranks(const CommandOptions& o, const Case& c) {
-  if (!o.flow_ranks) return nullptr;
-  if (c.aero.model != "cfd")
-    throw InputError(c.path, "aero.model",
-                     fmt::format("--ranks-per-flow {} splits the CFD model's flows over MPI ranks; this case's model "
-                                 "is '{}'", o.ranks_per_flow, c.aero.model),
-                     "model = \"cfd\" in [aero], or the command without --ranks-per-flow");
-  return o.flow_ranks;
-}
-
 // Whether this process speaks for its group of ranks (logs, prints and writes the command's files): rank 0 of a
 // --ranks-per-flow group, or a process alone.
 bool speaks(const CommandOptions& o) { return !o.flow_ranks || o.flow_ranks->rank() == 0; }
@@ -135,12 +123,11 @@ int run_trim_hover(const CommandOptions& o) {
     const auto qs = make_aero_model(qc);
     const TrimResult start = trimmed(qc, *qs);
     ns::CfdModel cfd(c, cfd_log(o), cfd_cache(o, c));
-    cfd.run_over(flow_ranks(o, c));
+    cfd.run_over(o.flow_ranks);
     cfd.plan_for(trim_extreme_kinematics(c, start));
     t = refine_trim(c, cfd, *qs, start, RefineSettings{c.aero.cfd.trim_tolerance, c.aero.cfd.trim_iterations},
                     cfd_log(o));
   } else {
-    flow_ranks(o, c);
     t = trimmed(c, *model);
   }
   if (!speaks(o)) return 0;
@@ -165,11 +152,10 @@ int run_derivatives(const CommandOptions& o) {
   TrimResult t;
   DerivativeResult d;
   if (c.aero.model == "cfd") {
-    cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), flow_ranks(o, c));
+    cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), o.flow_ranks);
     t = cfd->trim;
     d = cfd->derivatives;
   } else {
-    flow_ranks(o, c);
     const auto model = make_aero_model(c);
     t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
@@ -265,14 +251,13 @@ int run_stability(const CommandOptions& o) {
     refuse_no_trim_with_cfd(o, c);
     j = metadata_json(c, "stability");
     if (c.aero.model == "cfd") {
-      const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), flow_ranks(o, c));
+      const CfdStudy cfd = cfd_study(c, cfd_cache(o, c), cfd_log(o), o.flow_ranks);
       table = cfd.derivatives.table;
       j["trim"] = trim_json(cfd.trim);
       j["derivatives"] = derivatives_json(cfd.derivatives);
       j["cfd"] = cfd_study_json(cfd);
     } else {
-      flow_ranks(o, c);
-      const auto model = make_aero_model(c);
+        const auto model = make_aero_model(c);
       const TrimResult t = trim_or_evaluate(o, c, *model);
       if (!o.quiet && !t.solved) print_trim(c, t, seconds_since(t0));
       const DerivativeResult d = derivatives_with_control(c, *model, t.kinematics);
@@ -308,12 +293,11 @@ int run_analyze(const CommandOptions& o) {
   DerivativeResult d;
   WrenchHistory history;
   if (c.aero.model == "cfd") {
-    cfd = cfd_study(c, dir + "/cfd_runs", cfd_log(o), flow_ranks(o, c));
+    cfd = cfd_study(c, dir + "/cfd_runs", cfd_log(o), o.flow_ranks);
     t = cfd->trim;
     d = cfd->derivatives;
     history = cfd->history;
   } else {
-    flow_ranks(o, c);
     t = trim_or_evaluate(o, c, *model);
     d = derivatives_with_control(c, *model, t.kinematics);
     AeroRunOptions fine;
@@ -452,7 +436,15 @@ int run_in_flow_groups(CommandOptions o, const std::string& name, int (*command)
                                  k));
   }
   o.flow_ranks = job->split(k);
-  return run_over_ranks(*o.flow_ranks, "flapstab " + name, [&] { return command(o); });
+  return run_over_ranks(*o.flow_ranks, "flapstab " + name, [&] {
+    if (!o.case_path.empty())  // (stability --derivatives TABLE runs no flow)
+      if (const Case c = load_case(o.case_path); c.aero.model != "cfd")
+        throw InputError(c.path, "aero.model",
+                         fmt::format("--ranks-per-flow {} splits the CFD model's flows over MPI ranks; this case's "
+                                     "model is '{}'", k, c.aero.model),
+                         "model = \"cfd\" in [aero], or the command without --ranks-per-flow");
+    return command(o);
+  });
 }
 
 }  // namespace flapstab

@@ -263,7 +263,6 @@ std::optional<nlohmann::json> read_json(const std::string& path, const std::stri
 // meets the same collective operations; a state kept in the cache is the whole grid's, which every rank reads.
 struct Ranks {
   std::shared_ptr<const Decomposition> d;  // never null (one rank without MPI by default)
-  bool lead() const { return d->rank() == 0; }
   template <class Fn>
   void on_lead(Fn&& fn) const {
     on_root(*d, std::forward<Fn>(fn));
@@ -287,12 +286,14 @@ struct Ranks {
       return std::string();
     });
   }
-  // The lock taken without waiting: "" when rank 0 holds it, else who does.
-  std::string try_claim(std::optional<FileLock>& lock, const std::string& path) const {
-    return from_root(*d, [&] {
+  // The lock taken without waiting: nothing when rank 0 now holds it, else who does (FileLock::holder).
+  std::optional<std::string> try_claim(std::optional<FileLock>& lock, const std::string& path) const {
+    const std::string answer = from_root(*d, [&] {
       lock.emplace(path, FileLock::Mode::try_only);
-      return lock->held() ? std::string() : "held: " + FileLock::holder(path);
+      return lock->held() ? std::string() : "-" + FileLock::holder(path);  // never empty when another holds it
     });
+    if (answer.empty()) return std::nullopt;
+    return answer.substr(1);
   }
   SimulationState to_keep(const Simulation& sim) const { return d->distributed() ? sim.whole_state() : sim.state(); }
   SimulationOptions options(SimulationOptions o = {}) const {
@@ -455,11 +456,9 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                       p.sponge_width > 0 ? fmt::format("; sponge layer {:.3g} m deep along the faces", p.sponge_width)
                                          : std::string()));
       Simulation sim(st->base_case, kin, BodyMotion{}, p, ranks.options());
-      if (ranks_->distributed()) {  // each flow of the model over the group's ranks (every rank calls slabs())
-        std::string planes;
-        for (const Slab& sl : sim.solver().slabs()) planes += (planes.empty() ? "" : " + ") + std::to_string(sl.n);
-        say(fmt::format("  every flow over {} MPI ranks: z slabs of {} planes\n", ranks_->size(), planes));
-      }
+      if (ranks_->distributed())  // each flow of the model over the group's ranks
+        say(fmt::format("  every flow over {} MPI ranks: z slabs of {} planes\n", ranks_->size(),
+                        slab_planes_text(sim.solver())));
       // A hover interrupted (killed) resumes from its last whole wingbeat: its state and its wingbeats so far are kept
       // after every wingbeat beside hover.h5, and removed when it ends.
       const PartialRun partial{file("hover.partial.json"), file("hover.partial.h5")};
@@ -549,10 +548,10 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
   if (!cached && !cache_.empty()) {
     const std::string lock = file("run_" + run_key + ".lock");
     if (options.defer_held) {
-      if (const std::string held = ranks.try_claim(run_lock, lock); !held.empty()) {
+      if (const auto holder = ranks.try_claim(run_lock, lock)) {
         --st.runs;
         throw RunHeldElsewhere(fmt::format("cfd model: run {} ({}) is being made by another process ({})", number,
-                                           label, held.substr(6)));
+                                           label, *holder));
       }
     } else {
       ranks.claim(run_lock, lock, fmt::format("run {} ({})", number, label), say);

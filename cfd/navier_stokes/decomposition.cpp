@@ -2,11 +2,9 @@
 #include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/mpi_start.hpp"
 #include <algorithm>
-#include <chrono>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #ifdef FLAPSTAB_HAVE_MPI
 #include <mpi.h>
 #endif
@@ -256,12 +254,7 @@ void Decomposition::broadcast(std::string& text) const {
   long length = rank_ == 0 ? long(text.size()) : 0;
   MPI_Request request;
   MPI_Ibcast(&length, 1, MPI_LONG, 0, comm_->comm, &request);
-  for (int done = 0, polls = 0;; ++polls) {
-    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-    if (done) break;
-    if (polls < 1000) std::this_thread::yield();  // a quick answer (a file written) costs no sleep
-    else std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
+  wait_without_spinning(&request);
   if (rank_ != 0) text.assign(std::size_t(length), '\0');
   if (length > 0) MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, comm_->comm);
 }

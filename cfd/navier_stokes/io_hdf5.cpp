@@ -381,13 +381,16 @@ std::string xdmf_series(const std::vector<std::vector<FieldWriter::Record>>& out
   return s + xdmf_tail;
 }
 
-FieldWriter::FieldWriter(std::string directory, std::string name, RectilinearAxes axes, FieldPrecision precision)
+FieldWriter::FieldWriter(std::string directory, std::string name, RectilinearAxes axes, FieldPrecision precision,
+                         bool read_series)
     : directory_(std::move(directory)), name_(std::move(name)), axes_(std::move(axes)), precision_(precision) {
   check_name(name_, "field output");
   axes_.check();
   fs::create_directories(directory_);
   // Whole outputs (<name>_<step>.h5) and pieces (<name>_<step>.p<piece>.h5, a run over MPI ranks); a step written
-  // both ways (restarts on another number of ranks) keeps the last file found of the whole kind, else its pieces.
+  // both ways (restarts with other settings) keeps its whole file. A writer of one piece of a run over ranks whose
+  // series another rank keeps reads nothing (read_series false).
+  if (!read_series) return;
   const std::regex pattern(std::regex_replace(name_, std::regex(R"([.\-])"), R"(\$&)") + R"(_(\d+)(\.p(\d+))?\.h5)");
   std::map<std::int64_t, std::map<int, Record>> pieces;
   QuietErrors quiet;

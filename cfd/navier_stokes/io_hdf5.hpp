@@ -44,8 +44,10 @@ enum class FieldPrecision { float64, float32 };
 class FieldWriter {
  public:
   // Outputs of an earlier run already in the directory join the series (restarts append to it).
+  // read_series false: the earlier outputs are not read (a writer that only writes pieces, write_piece, for a series
+  // another writer keeps).
   FieldWriter(std::string directory, std::string name, RectilinearAxes axes,
-              FieldPrecision precision = FieldPrecision::float64);
+              FieldPrecision precision = FieldPrecision::float64, bool read_series = true);
   // Writes the fields at one time (s) and step; returns the .h5 path. Outputs an earlier run left at
   // later steps leave the series (a restart has overtaken them).
   std::string write(double time, std::int64_t step, const std::vector<CellField>& fields);

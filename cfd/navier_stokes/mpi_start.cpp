@@ -11,6 +11,16 @@
 
 namespace flapstab::ns {
 
+void wait_without_spinning(void* request) {
+  auto* r = static_cast<MPI_Request*>(request);
+  for (int done = 0, polls = 0;; ++polls) {
+    MPI_Test(r, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    if (polls < 1000) std::this_thread::yield();
+    else std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
 void start_mpi() {
   static const bool started = [] {
     int initialised = 0;
@@ -26,11 +36,7 @@ void start_mpi() {
         // Decomposition::split) must not take the cores of a group still computing while MPI_Finalize waits for it.
         MPI_Request request;
         MPI_Ibarrier(MPI_COMM_WORLD, &request);
-        for (int done = 0;;) {
-          MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-          if (done) break;
-          std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        }
+        wait_without_spinning(&request);
         MPI_Finalize();
       });
     }

@@ -8,4 +8,9 @@ namespace flapstab::ns {
 // did; further calls do nothing.
 void start_mpi();
 
+// Completes a non-blocking MPI operation (`request` points at its MPI_Request) without spinning on the core, as Open
+// MPI's blocking calls do: polled, yielding at first (a quick answer costs no sleep), then every 2 ms. For waits that
+// may last minutes (a rank whose rank 0 waits for a file lock, a group done before the others).
+void wait_without_spinning(void* request);
+
 }  // namespace flapstab::ns

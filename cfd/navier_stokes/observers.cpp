@@ -179,7 +179,7 @@ void FieldOutput::write_pieces(const Simulation& sim) {
   try {
     RectilinearAxes axes = rectilinear(sv.grid());  // the slab's planes
     if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
-      writer_.emplace(dir_, "fields", axes, precision_);
+      writer_.emplace(dir_, "fields", axes, precision_, D.rank() == 0);  // rank 0 keeps the series
       axes_ = std::move(axes);
     }
     mine = writer_->write_piece(sim.time(), sim.step(), fields, D.rank());

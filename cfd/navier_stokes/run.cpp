@@ -16,6 +16,7 @@
 
 #include "cfd/navier_stokes/io_hdf5.hpp"
 #include "cfd/navier_stokes/observers.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
 #include "core/errors.hpp"
 #include "core/hash.hpp"
@@ -277,13 +278,10 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
                         plan.steps_per_cycle > 0 ? "" : "about ", long(std::ceil(steps_left_est)),
                         plan.steps_per_cycle > 0 ? fmt::format(" (dt = T/{} = {:.4g} s)", plan.steps_per_cycle, plan.dt)
                                                  : fmt::format(" (adaptive dt, CFL {})", s.cfl));
-    if (D.distributed()) {
-      std::string planes;
-      for (const Slab& sl : sim.solver().slabs()) planes += (planes.empty() ? "" : " + ") + std::to_string(sl.n);
+    if (D.distributed())
       *log << fmt::format("  over {} MPI ranks: z slabs of {} planes; {:.1f} MiB on the largest rank; rank 0 writes "
                           "the files\n",
-                          D.size(), planes, largest_rank_bytes / 1048576.0);
-    }
+                          D.size(), slab_planes_text(sim.solver()), largest_rank_bytes / 1048576.0);
     if (plan.sponge_width > 0)
       *log << fmt::format("  sponge layer {:.4g} m deep along every face, relaxing towards the far field at up to "
                           "{:.4g} /s ({:g} per wingbeat)\n",

@@ -454,36 +454,11 @@ void write_state(const std::string& path, const SimulationState& s, std::map<std
   write_checkpoint(path, h, arrays);
 }
 
-SimulationState read_state(const CheckpointReader& ck, const Shape& whole, const Slab& slab) {
-  const Shape sh(whole.nx, whole.ny, slab.n);
-  const std::vector<std::size_t> dims{std::size_t(whole.nz + 2), std::size_t(whole.ny + 2), std::size_t(whole.nx + 2)};
-  for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"}) {
-    if (!ck.contains(name)) throw InputError(ck.path(), name, "missing array", "a checkpoint of flapstab cfd");
-    if (ck.shape(name) != dims)
-      throw InputError(ck.path(), name, "array of another grid's shape",
-                       fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
-  }
-  if (!ck.header().values.count("guess"))
-    throw InputError(ck.path(), "guess", "missing value", "a checkpoint of flapstab cfd");
-  SimulationState s;
-  s.u = VectorField(sh);
-  s.phi = VectorField(sh);
-  s.p = Field(sh);
-  const std::size_t first = std::size_t(slab.offset);  // padded plane offset .. offset + n + 1
-  for (int d = 0; d < 3; ++d) {
-    ck.read_rows(fmt::format("u{}", d), first, std::span<double>(s.u[d].data(), sh.size()));
-    ck.read_rows(fmt::format("phi{}", d), first, std::span<double>(s.phi[d].data(), sh.size()));
-  }
-  ck.read_rows("p", first, std::span<double>(s.p.data(), sh.size()));
-  s.time = ck.header().time;
-  s.step = long(ck.header().step);
-  s.guess = ck.header().values.at("guess") != 0;
-  const auto dt = ck.header().values.find("dt");
-  s.dt_last = dt != ck.header().values.end() ? dt->second : 0;
-  return s;
-}
+namespace {
 
-SimulationState read_state(const CheckpointReader& ck, const Shape& sh) {
+// A state of fields of shape `sh` from a checkpoint of flapstab cfd, each array read by read(name, span).
+template <class Read>
+SimulationState state_from(const CheckpointReader& ck, const Shape& sh, Read&& read) {
   for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"})
     if (!ck.contains(name)) throw InputError(ck.path(), name, "missing array", "a checkpoint of flapstab cfd");
   if (!ck.header().values.count("guess"))
@@ -493,16 +468,33 @@ SimulationState read_state(const CheckpointReader& ck, const Shape& sh) {
   s.phi = VectorField(sh);
   s.p = Field(sh);
   for (int d = 0; d < 3; ++d) {
-    ck.read(fmt::format("u{}", d), std::span<double>(s.u[d].data(), sh.size()));
-    ck.read(fmt::format("phi{}", d), std::span<double>(s.phi[d].data(), sh.size()));
+    read(fmt::format("u{}", d), std::span<double>(s.u[d].data(), sh.size()));
+    read(fmt::format("phi{}", d), std::span<double>(s.phi[d].data(), sh.size()));
   }
-  ck.read("p", std::span<double>(s.p.data(), sh.size()));
+  read(std::string("p"), std::span<double>(s.p.data(), sh.size()));
   s.time = ck.header().time;
   s.step = long(ck.header().step);
   s.guess = ck.header().values.at("guess") != 0;
   const auto dt = ck.header().values.find("dt");
   s.dt_last = dt != ck.header().values.end() ? dt->second : 0;
   return s;
+}
+
+}  // namespace
+
+SimulationState read_state(const CheckpointReader& ck, const Shape& whole, const Slab& slab) {
+  const std::vector<std::size_t> dims{std::size_t(whole.nz + 2), std::size_t(whole.ny + 2), std::size_t(whole.nx + 2)};
+  for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"})
+    if (ck.contains(name) && ck.shape(name) != dims)
+      throw InputError(ck.path(), name, "array of another grid's shape",
+                       fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
+  const std::size_t first = std::size_t(slab.offset);  // padded planes offset .. offset + n + 1
+  return state_from(ck, Shape(whole.nx, whole.ny, slab.n),
+                    [&](const std::string& name, std::span<double> out) { ck.read_rows(name, first, out); });
+}
+
+SimulationState read_state(const CheckpointReader& ck, const Shape& sh) {
+  return state_from(ck, sh, [&](const std::string& name, std::span<double> out) { ck.read(name, out); });
 }
 
 }  // namespace flapstab::ns

@@ -38,6 +38,12 @@ void write_solver_checkpoint(const std::string& path, const Solver& s, long step
   on_root(s.decomposition(), [&] { write_state(path, st, values, text); });
 }
 
+std::string slab_planes_text(const Solver& s) {
+  std::string planes;
+  for (const Slab& sl : s.slabs()) planes += (planes.empty() ? "" : " + ") + std::to_string(sl.n);
+  return planes;
+}
+
 SimulationState own_planes(const SimulationState& whole, const Solver& s) {
   const Shape local = s.grid().shape(), sh = s.whole_grid().shape();
   if (!s.decomposition().distributed() || !(whole.u[0].shape() == sh) || local == sh) return whole;

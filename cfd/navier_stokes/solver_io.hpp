@@ -20,6 +20,8 @@ SimulationState gather_state(const Solver& s, long step, double dt_last);
 // The planes of this rank's slab (ghost planes included) of a whole-grid state, or the state itself when its fields
 // are not the whole grid's or there is one rank.
 SimulationState own_planes(const SimulationState& whole, const Solver& s);
+// The ranks' z slabs of the solver's grid for a log line, e.g. "6 + 6 + 6 + 6".
+std::string slab_planes_text(const Solver& s);
 
 // Cells of this rank's slab (x fastest, nx * ny * n values) gathered into the whole grid's cells on rank 0 (empty
 // elsewhere). Collective.
