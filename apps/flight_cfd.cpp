@@ -21,10 +21,13 @@
 #include "trim/parameters.hpp"
 #include "trim/refine.hpp"
 #include "cfd/navier_stokes/cfd_model.hpp"
+#include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
+#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "cfd/navier_stokes/run.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
 #include "core/body_state.hpp"
 #include "core/errors.hpp"
@@ -120,8 +123,14 @@ std::string controller_key(const ControllerSpec& c) {
 }  // namespace
 
 int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
-                const std::vector<int>& moving) {
+                const std::vector<int>& moving, std::shared_ptr<const ns::Decomposition> ranks) {
   const auto t0 = std::chrono::steady_clock::now();
+  // Over MPI ranks every flow runs over all of them; rank 0 prints, and writes the files for all (from_root: its
+  // failure is every rank's).
+  if (ranks && !ranks->distributed()) ranks.reset();
+  const ns::Decomposition one;
+  const ns::Decomposition& D = ranks ? *ranks : one;
+  const bool talk = !o.quiet && D.rank() == 0;
   // The kinematics: the quasi-steady trim refined on the CFD cycle means ([aero.cfd] trim_iterations), as the CFD
   // stability chain takes them (flapstab trim-hover / analyze with model = "cfd"), on the same grid.
   Case qc = c;
@@ -133,8 +142,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                  start.message));
   // The controller at the quasi-steady trim (its actuators' limits widen the fine box below).
   const ControllerSpec planned = controller_from_case(c, start.kinematics);
-  std::ostream* log = o.quiet ? nullptr : &std::cout;
+  std::ostream* log = talk ? &std::cout : nullptr;
   auto model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache");
+  if (ranks) model->run_over(ranks);
   std::vector<Kinematics> extremes = trim_extreme_kinematics(c, start);
   // The controller may drive each actuator to its limits: the fine box holds the wings there too (each actuator at
   // each limit, the others at the quasi-steady trim; a refined trim that moves an actuated parameter, or several
@@ -155,6 +165,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   const Kinematics& kin = trim.kinematics;
   if (trim.model_runs > 1) {  // the kept hover is of the start's kinematics: the trimmed one's own, same grid
     model = std::make_unique<ns::CfdModel>(c, log, dir + "/cfd_cache_trimmed");
+    if (ranks) model->run_over(ranks);
     model->plan_for(extremes);
   }
   const double T = kin.period();
@@ -232,7 +243,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   // One coupled flight from x_init, resumable from its own checkpoint (name: "flight" or "reference").
   auto fly = [&](const BodyStateVector& x_init, const std::string& name, long limit) {
     Flown f;
-    CfdFlight fl(c, dyn, plan);
+    CfdFlight fl(c, dyn, plan, ranks);
     fl.set_replanning(c.flight.cfd_replan);
     if (closed_reference)
       fl.set_controller(controller, [](double) { return BodyStateVector::Zero().eval(); });
@@ -246,7 +257,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
       residual.moment += centroid.cross(Vec3(0, 0, -plan.rho * V * c.insect.gravity));
     }
     if (c.flight.cfd_residual == "cancel") fl.set_offset(Wrench{-residual.force, -residual.moment});
-    if (!o.quiet && !printed) {
+    if (talk && !printed) {
       printed = true;
       fmt::print("{}: free flight of '{}' coupled to the Navier-Stokes solver, {} degrees of freedom, {} wingbeats "
                  "from the {}{}\n",
@@ -283,6 +294,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  plan.fine_lo.y(), plan.fine_hi.y(), plan.fine_lo.z(), plan.fine_hi.z(), fl.room() * 1e3,
                  c.flight.cfd_replan ? "re-planned around the body when a part has used half of it"
                                      : "the body must stay in it ([flight] cfd_replan = false)");
+      if (ranks)
+        fmt::print("  every flow over {} MPI ranks: z slabs of {} planes; rank 0 writes the files\n", D.size(),
+                   ns::slab_planes_text(fl.simulation().solver()));
       std::fflush(stdout);
     }
     // The key names the start too: the hover's last-wingbeat mean wrench (17 digits) stands for the hover state and
@@ -325,7 +339,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
             throw InputError(ck_path, "replans", "not a JSON array", "the header flapstab fly wrote");
           }
         }
-        const ns::SimulationState s = ns::read_state(ck, ns::plan_grid(ns::shifted_plan(plan, shift)).shape());
+        // Over ranks each reads its planes only.
+        const ns::Grid whole = ns::plan_grid(ns::shifted_plan(plan, shift));
+        const ns::SimulationState s = ranks ? ns::read_state(ck, whole.shape(), ns::Multigrid::rank_slab(whole, D))
+                                            : ns::read_state(ck, whole.shape());
         BodyStateVector x;
         Wrench held;
         for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));
@@ -347,9 +364,9 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         }
         fl.restore(s, x, held, steps, shift, phase);
         f.resumed = true;
-        if (!o.quiet)
+        if (talk)
           fmt::print("  {}: resumed from {} at step {} (t/T = {:.3f})\n", name, ck_path, s.step, s.time / T);
-      } else if (!o.quiet) {
+      } else if (talk) {
         fmt::print("  {}: {} is of another case, start or perturbation: starting afresh\n", name, ck_path);
       }
     }
@@ -359,7 +376,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     }
     const long first = steps.front().step;
     auto checkpoint = [&]() {
-      fs::create_directories(dir);
+      const ns::SimulationState state = fl.flow_state();  // over ranks: gathered on rank 0, which writes
       std::map<std::string, double> v;
       const CfdFlightStep& cur = fl.current();
       for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
@@ -370,10 +387,14 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         v[fmt::format("shift_lo{}", d)] = fl.fine_box_shift().lo[std::size_t(d)];
         v[fmt::format("shift_hi{}", d)] = fl.fine_box_shift().hi[std::size_t(d)];
       }
-      std::string rows = steps_header(actuators);
-      for (const auto& s : steps) rows += steps_row(s, T);
-      write_file_atomic(ck_rows, rows);
-      ns::write_state(ck_path, fl.flow_state(), v, {{"key", key}, {"replans", f.replans.dump()}});
+      ns::from_root(D, [&] {
+        fs::create_directories(dir);
+        std::string rows = steps_header(actuators);
+        for (const auto& s : steps) rows += steps_row(s, T);
+        write_file_atomic(ck_rows, rows);
+        ns::write_state(ck_path, state, v, {{"key", key}, {"replans", f.replans.dump()}});
+        return std::string();
+      });
     };
     const auto tr = std::chrono::steady_clock::now();
     const long start_step = steps.back().step;
@@ -386,7 +407,8 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     if (outputs) {
       fields.emplace(dir + "/fields", c.aero.cfd.fields_per_cycle,
                      c.aero.cfd.field_precision == "float32" ? ns::FieldPrecision::float32
-                                                             : ns::FieldPrecision::float64);
+                                                             : ns::FieldPrecision::float64,
+                     c.aero.cfd.field_files == "per-rank");
       surfaces.emplace(dir + "/surfaces", c.aero.cfd.surfaces_per_cycle);
       if (!f.resumed && c.aero.cfd.fields_per_cycle > 0) fields->write(fl.simulation());
       if (!f.resumed && c.aero.cfd.surfaces_per_cycle > 0) surfaces->write(fl.simulation());
@@ -407,7 +429,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                                {e.fine_hi.x(), e.fine_hi.y(), e.fine_hi.z()}}},
                                {"cells", e.cells},
                                {"seconds", e.seconds}});
-          if (!o.quiet) {
+          if (talk) {
             fmt::print("  {}: the fine box re-planned at wingbeat {:.3f} (a part came within {:.3g} mm of its "
                        "face): now [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] x [{:.4g}, {:.4g}] m, {} cells, the flow "
                        "carried over in {:.1f} s\n",
@@ -432,13 +454,13 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         }
         if (done % spc == 0 || done == limit) {
           checkpoint();
-          if (!o.quiet) {
+          if (talk) {
             const double el = seconds_since(tr), rate = el / double(s.step - start_step);
             std::string cmd;
             if (fl.closed_loop())
               for (std::size_t a = 0; a < actuators.size() && a < s.command.size(); ++a)
                 cmd += fmt::format(", command {} {:+.3f}", actuators[a].label(), s.command[a]);
-            fmt::print("  {} wingbeat {:.0f}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm{}; "
+            fmt::print("  {} wingbeat {:.4g}/{:g}: theta {:+.3f} deg, q {:+.2f} deg/s, (x, z) ({:+.3f}, {:+.3f}) mm{}; "
                        "{:.0f} s, about {:.0f} s left{}\n",
                        name, double(done) / spc, wingbeats, s.x(10) * 180 / M_PI, s.x(7) * 180 / M_PI, s.x(0) * 1e3,
                        s.x(2) * 1e3, cmd, seconds_since(t0), rate * double(limit - done),
@@ -446,7 +468,8 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
             std::fflush(stdout);  // progress of a long run, also when stdout is a file
           }
         }
-        if (const int sig = interrupt_requested(); sig != 0) {
+        // Over ranks a signal may reach the ranks at different steps: they stop together at the first step any saw it.
+        if (const int sig = ranks ? int(D.max(interrupt_requested())) : interrupt_requested(); sig != 0) {
           checkpoint();
           clear_interrupt();
           throw Interrupted(sig, fmt::format("free flight stopped on {} at step {} (t/T = {:.4f}); {} is written: "
@@ -475,7 +498,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     main_limit = ref_flight->steps.back().step - ref_flight->steps.front().step;
     cut = fmt::format("the unperturbed reference flight stopped ({}): the perturbed flight ends at the same step",
                       ref_flight->stop);
-    if (!o.quiet) fmt::print("  {}\n", cut);
+    if (talk) fmt::print("  {}\n", cut);
   }
   const Flown main = fly(x0, "flight", main_limit);
   const std::vector<CfdFlightStep>& steps = main.steps;
@@ -585,6 +608,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
               {"loads", c.aero.cfd.loads},
               {"fine_box_m", {{plan.fine_lo.x(), plan.fine_lo.y(), plan.fine_lo.z()},
                               {plan.fine_hi.x(), plan.fine_hi.y(), plan.fine_hi.z()}}},
+              {"mpi_ranks", D.size()},
               {"replanning", c.flight.cfd_replan},
               {"replans", {{"flight", main.replans}, {"reference", ref_flight ? ref_flight->replans : json::array()}}},
               {"replans_note", "the fine box re-planned around the body when a part came within half the room "
@@ -651,8 +675,11 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                                           {dir + "/steps.csv", steps_csv},
                                                           {dir + "/run.json", j.dump(2) + "\n"}};
   if (svg) out.emplace_back(dir + "/response.svg", *svg);
-  write_files_atomic(out);
-  if (!o.quiet) {
+  ns::from_root(D, [&] {
+    write_files_atomic(out);
+    return std::string();
+  });
+  if (talk) {
     if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
     fmt::print("  deviation from the {}: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per "
                "wingbeat (fit over wingbeats {}-{})\n",

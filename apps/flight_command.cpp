@@ -1,5 +1,6 @@
 // flapstab fly and flapstab control-map: free flight and the pitch controller's stability map.
 #include "apps/flight_command.hpp"
+#include "apps/over_ranks.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -106,15 +107,16 @@ int run_fly(const FlightCommandOptions& o) {
                        "dof = \"longitudinal\" or \"6dof\"");
   }
   if (c.aero.model == "cfd") {
-    // Copies started by mpiexec would each fly the same insect into the same directory (a free flight's flow is not
-    // decomposed over ranks yet: flapstab cfd's is).
-    if (const int n = ns::Decomposition::launched_processes(); n > 1)
-      throw InputError("mpiexec", "-n",
-                       fmt::format("flapstab fly with the CFD model runs in one process, and mpiexec started {} copies "
-                                   "of it (they would all fly the same insect into the same directory)",
-                                   n),
-                       "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS)");
-    return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
+    // Started by mpiexec: every flow of the flight (the hover, the CFD trim's runs, the reference and the perturbed
+    // flight) runs over all the processes, the grid in z slabs, as flapstab cfd's does.
+    if (ns::Decomposition::launched_processes() == 1) return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
+    std::shared_ptr<const ns::Decomposition> ranks;
+    try {
+      ranks = ns::Decomposition::launched();
+    } catch (const std::runtime_error& e) {  // several processes, but built without MPI
+      throw InputError("mpiexec", "-n", e.what(), "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS)");
+    }
+    return run_over_ranks(*ranks, "flapstab fly", [&] { return run_fly_cfd(o, c, dir, dofs, wingbeats, moving, ranks); });
   }
   const auto model = make_aero_model(c);
   const std::vector<TrimParameterSpec> actuators = controller_actuators(c);

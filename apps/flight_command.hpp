@@ -1,6 +1,7 @@
 // The `fly` and `control-map` subcommands: free flight of the trimmed insect with its controller, and the
 // delay-exact (gain, latency) stability map of the pitch controller with simulated check points.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -28,8 +29,13 @@ struct TrimParameterSpec;
 ControllerSpec controller_from_case(const Case& c, const Kinematics& kin);
 // The actuators a controller drives, with their absolute limits (parameter units).
 std::vector<TrimParameterSpec> controller_actuators(const Case& c);
+// Over MPI ranks (`ranks`: all of an mpiexec job; null for one process) every flow runs over all of them, the grid in
+// z slabs; rank 0 prints and writes the files.
+namespace ns {
+class Decomposition;
+}
 int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string& dir, DofSet dofs, double wingbeats,
-                const std::vector<int>& moving);
+                const std::vector<int>& moving, std::shared_ptr<const ns::Decomposition> ranks = {});
 // flapstab control-map CASE -o DIR: control_map.json, control_map.csv, control_map.svg.
 int run_control_map(const FlightCommandOptions& o);
 

@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
              "[flight] perturbation and the [control] feedback law: trajectory.csv, run.json, response.svg in DIR. "
              "With [aero] model = \"cfd\": coupled to the Navier-Stokes solver (open or closed loop) from the kept CFD hover, "
              "also steps.csv, fields, surfaces and a checkpoint per wingbeat (the same command resumes; a larger "
-             "--wingbeats extends)");
+             "--wingbeats extends); under `mpiexec -n N` every flow runs over the N ranks (the grid in z slabs)");
   fly->add_option("case", fo.case_path, "case file (TOML) with [flight] and optional [control] tables")
       ->required()->check(CLI::ExistingFile);
   fly->add_option("-o,--output", fo.output_dir, "output directory (default: the case's [output] directory)");

@@ -4,11 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <tuple>
 #include <fmt/format.h>
 
 #include <algorithm>
+#include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/insect_motion.hpp"
+#include "cfd/navier_stokes/solver_io.hpp"
 #include "core/body_state.hpp"
 #include "core/errors.hpp"
 #include "core/rotation.hpp"
@@ -106,12 +109,24 @@ class CfdFlight::Feedback {
   std::vector<BodyStateVector> hd_;
 };
 
-CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan)
-    : dyn_(dynamics), case_(c), base_plan_(plan), plan_(plan) {
+namespace {
+
+ns::SimulationOptions over(const std::shared_ptr<const ns::Decomposition>& ranks) {
+  ns::SimulationOptions o;
+  o.decomposition = ranks;
+  return o;
+}
+
+}  // namespace
+
+CfdFlight::CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan,
+                     std::shared_ptr<const ns::Decomposition> ranks)
+    : dyn_(dynamics), case_(c), ranks_(ranks && ranks->distributed() ? std::move(ranks) : nullptr), base_plan_(plan),
+      plan_(plan) {
   if (plan.steps_per_cycle <= 0)
     throw InputError(c.path, "aero.cfd.steps_per_cycle", "free flight coupled to the solver needs a fixed time step",
                      "steps_per_cycle > 0");
-  sim_ = std::make_unique<ns::Simulation>(c, dynamics.trimmed(), BodyMotion{}, plan);
+  sim_ = std::make_unique<ns::Simulation>(c, dynamics.trimmed(), BodyMotion{}, plan, over(ranks_));
   rho_ = plan.rho;
   g_ = dynamics.gravity();
   for (int i = 0; i < sim_->part_count(); ++i) {
@@ -221,10 +236,17 @@ CfdFlightStep CfdFlight::observe(long step, double cfl) const {
   s.cfl = cfl;
   s.x = x_;
   const ns::CfdLoadRow row = sim_->loads();
-  const Wrench total = row.total();
+  Wrench total = row.total();
+  s.power = row.wing_power;
+  if (ranks_) {  // rank 0's: every rank then moves the body alike, whatever order a reduction summed the loads in
+    double v[7] = {total.force.x(), total.force.y(), total.force.z(), total.moment.x(), total.moment.y(),
+                   total.moment.z(), s.power};
+    ranks_->broadcast(v, 7);
+    total = Wrench{Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5])};
+    s.power = v[6];
+  }
   s.aero = ns::wrench_on_body(ns::body_frame(x_, BodyStateVector::Zero()), total.force, total.moment);
   s.buoyancy = buoyancy(x_);
-  s.power = row.wing_power;
   s.command = command(s.time, x_);
   s.phase = freq_ < 0 ? s.time * f0_ : psi_;
   return s;
@@ -305,7 +327,7 @@ double CfdFlight::gap(const std::vector<ns::BoundingBox>& boxes) const {
 void CfdFlight::rebuild(const ns::FineBoxShift& shift) {
   const ns::CfdPlan p = ns::shifted_plan(base_plan_, shift);
   sim_.reset();  // its memory first: the new grid may be larger
-  sim_ = std::make_unique<ns::Simulation>(case_, dyn_.trimmed(), BodyMotion{}, p);
+  sim_ = std::make_unique<ns::Simulation>(case_, dyn_.trimmed(), BodyMotion{}, p, over(ranks_));
   plan_ = p;
   shift_ = shift;
 }
@@ -332,14 +354,22 @@ void CfdFlight::maybe_replan(const std::vector<ns::BoundingBox>& boxes) {
       ns::fine_box_shift(base_plan_, box.lo - Vec3::Constant(room_), box.hi + Vec3::Constant(room_));
   if (shift == shift_) return;  // the box cannot move further: check_inside decides
   const ns::CfdPlan next = ns::shifted_plan(base_plan_, shift);
-  if (const std::size_t free = ns::available_memory_bytes(); free > 0)
-    ns::check_memory(next, case_.path, free + sim_->bytes());  // the old grid's memory is released first
-  const ns::SimulationState flow = sim_->state();
-  const ns::Grid from = sim_->grid();
+  const ns::Decomposition one;
+  ns::from_root(ranks_ ? *ranks_ : one, [&] {  // over ranks rank 0 decides for all
+    if (const std::size_t free = ns::available_memory_bytes(); free > 0)
+      ns::check_memory(next, case_.path, free + sim_->bytes());  // the old grid's memory is released first
+    return std::string();
+  });
+  // Over ranks the flow is carried over on rank 0 (the whole grid gathered there) and each rank receives its planes
+  // of the new grid: the same values as in one process.
+  std::optional<ns::SimulationState> flow = sim_->whole_state();
+  const ns::Grid from = sim_->whole_grid();
   rebuild(shift);
-  const ns::SimulationState moved = ns::transfer_state(flow, from, sim_->grid());
+  ns::SimulationState moved;
+  if (!ranks_ || ranks_->rank() == 0) moved = ns::transfer_state(*flow, from, sim_->whole_grid());
+  flow.reset();
   sim_->set_part_source([this](double t) { return parts_at(t); });
-  sim_->restore(moved);
+  sim_->restore(ns::scatter_state(moved, sim_->solver()));
   CfdReplan r;
   r.step = sim_->step();
   r.time = sim_->time();

@@ -82,8 +82,12 @@ struct CfdFlightStep {
 class CfdFlight {
  public:
   // dynamics: the insect, its (trimmed) kinematics and the degrees of freedom (its own loads are not used);
-  // plan: a plan in still air (plan_cfd with no body motion) for dynamics' kinematics.
-  CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan);
+  // plan: a plan in still air (plan_cfd with no body motion) for dynamics' kinematics; ranks: the MPI ranks the flow
+  // runs over (its grid in z slabs, ns::Simulation's SimulationOptions::decomposition; null: one process). Over
+  // several ranks every rank must make the same calls: the body's equations are integrated on every rank from rank
+  // 0's loads (broadcast each step, so that no rank's body drifts from another's by the round-off of a reduction).
+  CfdFlight(const Case& c, const FlightDynamics& dynamics, const ns::CfdPlan& plan,
+            std::shared_ptr<const ns::Decomposition> ranks = {});
   ~CfdFlight();
   // Starts from a flow state (the kept periodic hover, tethered: computed with the body at rest at O) or from
   // rest (nullptr, the flow at t = 0), the body at x0 (the DoF set's held components zeroed).
@@ -105,8 +109,9 @@ class CfdFlight {
   void set_offset(const Wrench& w) { offset_ = w; }
   const Wrench& offset() const { return offset_; }
   // Exact continuation: the flow state, the body state and the fluid wrench held over the next step (the
-  // current step's aero).
-  ns::SimulationState flow_state() const { return sim_->state(); }
+  // current step's aero). Over ranks the whole grid's state on rank 0 (empty fields elsewhere; collective).
+  ns::SimulationState flow_state() const { return sim_->whole_state(); }
+  // flow: the whole grid's state (on every rank) or, over ranks, this rank's slab of it.
   // past: the flight's steps from its start to the restored one (their times and states; only with a controller:
   // its sensed history and filter states are replayed from them, so the continuation is exact). shift: the fine
   // box's shift the state was computed on (fine_box_shift() when it was taken); phase: the wings' phase then
@@ -158,6 +163,7 @@ class CfdFlight {
   void rebuild(const ns::FineBoxShift& shift);
   const FlightDynamics& dyn_;
   Case case_;
+  std::shared_ptr<const ns::Decomposition> ranks_;  // null: one process
   ns::CfdPlan base_plan_;
   ns::FineBoxShift shift_;
   bool replan_ = false;

@@ -210,6 +210,28 @@ void Decomposition::gather_field(const Field& local, const std::vector<Slab>& sl
               rank_ == 0 ? whole.data() : nullptr, counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
 }
 
+void Decomposition::scatter_field(const Field& whole, const std::vector<Slab>& slabs, Field& local) const {
+  const Shape& s = local.shape();
+  if (!comm_ || size_ < 2) {
+    local = whole;
+    return;
+  }
+  const Timed timed(traffic_.seconds);
+  ++traffic_.gathers;
+  constexpr int tag = 71;
+  if (rank_ != 0) {
+    MPI_Recv(local.data(), int(s.size()), MPI_DOUBLE, 0, tag, comm_->comm, MPI_STATUS_IGNORE);
+    return;
+  }
+  for (int r = 1; r < size_; ++r) {  // planes offset .. offset + n + 1 of the whole array are contiguous
+    const Slab& sl = slabs[std::size_t(r)];
+    const int count = int(s.sz) * (sl.n + 2);
+    traffic_.bytes += double(count) * sizeof(double);
+    MPI_Send(whole.data() + whole.shape()(0, 0, sl.offset), count, MPI_DOUBLE, r, tag, comm_->comm);
+  }
+  std::copy_n(whole.data() + whole.shape()(0, 0, slabs[0].offset), s.size(), local.data());
+}
+
 void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& window) const {
   const Shape& s = local.shape();
   const int lo = sl.cut_lo ? depth : 0;
@@ -259,6 +281,12 @@ void Decomposition::broadcast(std::string& text) const {
   if (length > 0) MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, comm_->comm);
 }
 
+void Decomposition::broadcast(double* v, int n) const {
+  if (!comm_ || size_ <= 1) return;
+  const Timed timed(traffic_.seconds);
+  MPI_Bcast(v, n, MPI_DOUBLE, 0, comm_->comm);
+}
+
 double Decomposition::max(double v) const {
   if (comm_ && size_ > 1) {
     const Timed timed(traffic_.seconds);
@@ -277,6 +305,8 @@ double Decomposition::sum(double v) const { return v; }
 void Decomposition::sum(double*, int) const {}
 double Decomposition::max(double v) const { return v; }
 void Decomposition::broadcast(std::string&) const {}
+void Decomposition::scatter_field(const Field& whole, const std::vector<Slab>&, Field& local) const { local = whole; }
+void Decomposition::broadcast(double*, int) const {}
 #endif
 
 }  // namespace flapstab::ns

@@ -81,6 +81,9 @@ class Decomposition {
   // The slabs of a padded field gathered into the whole field on rank 0 (`whole`, the whole grid's shape, is
   // untouched elsewhere): each rank's planes 1 .. n, and the end ranks' outer ghost planes.
   void gather_field(const Field& local, const std::vector<Slab>& slabs, Field& whole) const;
+  // The inverse: rank 0's whole field (`whole`, the whole grid's shape; unused elsewhere) sent to the ranks, each
+  // receiving its slab's planes offset .. offset + n + 1 (its ghost planes included) into `local` (the slab's shape).
+  void scatter_field(const Field& whole, const std::vector<Slab>& slabs, Field& local) const;
 
   double sum(double v) const;
   void sum(double* v, int n) const;  // element-wise, in place
@@ -88,6 +91,8 @@ class Decomposition {
   // Rank 0's text on every rank. The others wait without spinning on their cores (after a short while they poll every
   // 2 ms): rank 0 may be waiting for a file lock meanwhile.
   void broadcast(std::string& text) const;
+  // Rank 0's n values on every rank (a blocking broadcast).
+  void broadcast(double* v, int n) const;
 
   // What this rank has communicated since construction (for the cost model in docs/theory/scale-out.md): ghost
   // exchanges (each one or two plane messages), the bytes it sent in them and in gathers, all-reductions, and the

@@ -1,6 +1,7 @@
 // Whole-grid checkpoints and fields of a decomposed solver (see solver_io.hpp).
 #include "cfd/navier_stokes/solver_io.hpp"
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <fmt/format.h>
 #include "cfd/navier_stokes/observers.hpp"
@@ -28,6 +29,28 @@ SimulationState gather_state(const Solver& s, long step, double dt_last) {
   gather_flow(s, st.u, st.p);
   if (D.rank() == 0) st.phi = VectorField(s.whole_grid().shape());
   for (int d = 0; d < 3; ++d) D.gather_field(s.pressure_increments()[d], slabs, st.phi[d]);
+  return st;
+}
+
+SimulationState scatter_state(const SimulationState& whole, const Solver& s) {
+  const Decomposition& D = s.decomposition();
+  if (!D.distributed()) return whole;
+  double head[4] = {whole.time, double(whole.step), whole.dt_last, whole.guess ? 1.0 : 0.0};
+  D.broadcast(head, 4);
+  SimulationState st;
+  st.time = head[0];
+  st.step = std::lround(head[1]);
+  st.dt_last = head[2];
+  st.guess = head[3] != 0;
+  const Shape sh = s.grid().shape();
+  st.u = VectorField(sh);
+  st.phi = VectorField(sh);
+  st.p = Field(sh);
+  for (int d = 0; d < 3; ++d) {
+    D.scatter_field(whole.u[d], s.slabs(), st.u[d]);
+    D.scatter_field(whole.phi[d], s.slabs(), st.phi[d]);
+  }
+  D.scatter_field(whole.p, s.slabs(), st.p);
   return st;
 }
 

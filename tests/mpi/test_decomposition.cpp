@@ -400,6 +400,28 @@ TEST(Decomposition, CheckpointsRestartOnAnotherNumberOfRanks) {
   EXPECT_THROW(read_solver_checkpoint(shared_path("ranks.h5"), other), flapstab::InputError);
 }
 
+// Scattering a gathered state gives every rank its own planes back, ghost planes included, bit for bit, with rank 0's
+// time, step and last dt (a free flight's fine box re-planned over ranks carries the flow over this way).
+TEST(Decomposition, ScatteredStateIsEachRanksOwnPlanesOfTheGatheredOne) {
+  const WalledCase c;
+  Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
+  c.start(part, whole, 3);
+  const SimulationState gathered = gather_state(part, 3, c.opt.dt);
+  const SimulationState mine = scatter_state(gathered, part);
+  EXPECT_EQ(mine.step, 3);
+  EXPECT_EQ(mine.time, part.time());
+  EXPECT_EQ(mine.dt_last, c.opt.dt);
+  EXPECT_EQ(mine.guess, part.has_guess());
+  auto same = [](const Field& a, const Field& b) {
+    return a.shape() == b.shape() && std::equal(a.begin(), a.end(), b.begin());
+  };
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_TRUE(same(mine.u[d], part.velocity()[d])) << "u" << d << " on rank " << world()->rank();
+    EXPECT_TRUE(same(mine.phi[d], part.pressure_increments()[d])) << "phi" << d << " on rank " << world()->rank();
+  }
+  EXPECT_TRUE(same(mine.p, part.pressure())) << "on rank " << world()->rank();
+}
+
 // The decomposed solver's field file (gathered on rank 0) holds the single-rank solver's fields to round-off.
 TEST(Decomposition, FieldsAreTheWholeGridsFile) {
   const WalledCase c;
