@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cfd/fpm/observer.hpp"
+#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/run.hpp"
 #include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
@@ -296,6 +297,12 @@ struct Ranks {
     return answer.substr(1);
   }
   SimulationState to_keep(const Simulation& sim) const { return d->distributed() ? sim.whole_state() : sim.state(); }
+  // A kept (whole-grid) state of grid `whole` read back: over ranks only this rank's planes (ghost planes included)
+  // are read, so no rank holds the whole grid; the flows restore either.
+  SimulationState read(const CheckpointReader& ck, const Grid& whole) const {
+    return d->distributed() ? read_state(ck, whole.shape(), Multigrid::rank_slab(whole, *d))
+                            : read_state(ck, whole.shape());
+  }
   SimulationOptions options(SimulationOptions o = {}) const {
     if (d->distributed()) o.decomposition = d;
     return o;
@@ -308,13 +315,13 @@ struct Ranks {
 struct PartialRun {
   std::string json, h5;
   std::optional<std::pair<SimulationState, nlohmann::json>> read(const Ranks& ranks, const std::string& key,
-                                                                 const Shape& shape,
+                                                                 const Grid& grid,
                                                                  const std::function<void(const std::string&)>& say,
                                                                  const char* restart) const {
     const auto part = ranks.json(json, key);
     if (!part || !ranks.exists(h5)) return std::nullopt;
     const CheckpointReader ck(h5);
-    SimulationState saved = read_state(ck, shape);
+    SimulationState saved = ranks.read(ck, grid);
     if (saved.step == part->at("step").get<long>()) return std::make_pair(std::move(saved), *part);
     say(fmt::format("  warning: {} (step {}) and {} (step {}) do not belong together; {}\n", h5, saved.step, json,
                     part->at("step").get<long>(), restart));
@@ -440,7 +447,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     const auto cached = cache_.empty() ? std::nullopt : ranks.json(file("hover.json"), st->key);
     if (cached && ranks.exists(file("hover.h5"))) {
       const CheckpointReader ck(file("hover.h5"));
-      st->hover_state = read_state(ck, plan_grid(st->plan).shape());
+      st->hover_state = ranks.read(ck, plan_grid(st->plan));
       st->hover_rows = rows_from(cached->at("last_cycle"));
       rec.cycles = cycles_from(cached->at("cycles"));
       rec.converged = cached->at("converged").get<bool>();
@@ -464,7 +471,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       const PartialRun partial{file("hover.partial.json"), file("hover.partial.h5")};
       PeriodicRun earlier;
       if (const auto part = cache_.empty() ? std::nullopt
-                                           : partial.read(ranks, st->key, plan_grid(p).shape(), say,
+                                           : partial.read(ranks, st->key, plan_grid(p), say,
                                                           "the hover starts again from rest")) {
         sim.restore(part->first);
         earlier.cycles = cycles_from(part->second.at("cycles"));
@@ -612,7 +619,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     double earlier_seconds = 0;
     bool resumed = false;
     if (const auto part = cache_.empty() ? std::nullopt
-                                         : partial.read(ranks, run_key, plan_grid(plan).shape(), say,
+                                         : partial.read(ranks, run_key, plan_grid(plan), say,
                                                         "the run starts again from the hover")) {
       sim.restore(part->first);
       for (const auto& h : part->second.at("history")) history.push_back(rows_from(h));
@@ -623,7 +630,6 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       say(fmt::format("  resumed after its wingbeat {} from {}\n", history.size(), partial.h5));
     }
     if (!resumed) {
-      st.hover_state = own_planes(st.hover_state, sim.solver());  // a whole-grid state read from the cache: the slab
       sim.restore(st.hover_state, BodyMotion{});
     }
     for (int k = int(history.size()) + 1; k <= st.perturbed_settings.max_cycles; ++k) {
@@ -755,7 +761,7 @@ void CfdModel::continue_reference(int k) const {
       const long end_step = st.hover_state.step + long(st.ref_cycles.size()) * n;
       if (st.ref_on_file && !st.ref_cycles.empty() && ranks.exists(file("reference.h5"))) {
         const CheckpointReader ck(file("reference.h5"));
-        end = read_state(ck, plan_grid(st.plan).shape());
+        end = ranks.read(ck, plan_grid(st.plan));
         if (end->step != end_step) end.reset();
       }
       if (!end && !st.ref_cycles.empty()) {
@@ -768,7 +774,6 @@ void CfdModel::continue_reference(int k) const {
         st.ref_partition.clear();
       }
       st.ref_on_file = false;
-      if (!end) st.hover_state = own_planes(st.hover_state, st.ref_sim->solver());
       st.ref_sim->restore(end ? *end : st.hover_state);
       if (s.fpm.enabled) st.ref_fpm = std::make_unique<fpm::FpmObserver>(*st.ref_sim, s.fpm, std::string());
     }
@@ -858,7 +863,7 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     earlier_seconds = j->at("wall_s").get<double>();
     if (int(r.wingbeats.size()) < needed) {
       const std::string restart = "the " + label + " starts again from the hover";
-      if (auto part = kept_run.read(ranks, key, plan_grid(st.plan).shape(), say, restart.c_str())) {
+      if (auto part = kept_run.read(ranks, key, plan_grid(st.plan), say, restart.c_str())) {
         kept = std::move(part->first);
       } else {
         if (!ranks.exists(h5_file)) say(fmt::format("  warning: {} has no state beside it; {}\n", json_file, restart));
@@ -890,7 +895,6 @@ PitchOscillationResult CfdModel::pitch_oscillation(const Insect& insect, const K
     if (kept) {
       sim.restore(*kept);
     } else {
-      st.hover_state = own_planes(st.hover_state, sim.solver());
       sim.restore(st.hover_state, BodyMotion{});
     }
     say(fmt::format("cfd model: {} (q up to {:.4g} rad/s) from {}, {} wingbeats ({} left out, then {} period{} "

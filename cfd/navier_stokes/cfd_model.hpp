@@ -90,8 +90,7 @@ class CfdModel final : public AeroModel {
   const CfdPlan* plan() const;
   // The kept periodic hover state (the base hover's last wingbeat ends in it; after the first run), else nullptr:
   // free flight coupled to the solver starts from it.
-  // Over several ranks (run_over) this rank's slab, or the whole grid's when it was read from the cache and no flow
-  // has started from it yet (Simulation::restore takes either).
+  // Over several ranks (run_over) this rank's slab (read from the cache plane by plane).
   const SimulationState* hover_state() const;
   // The base hover's run record (after the first run), else nullptr.
   const CfdRunRecord* hover_record() const { return records().empty() ? nullptr : &records().front(); }
