@@ -376,7 +376,6 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
     }
     const long first = steps.front().step;
     auto checkpoint = [&]() {
-      const ns::SimulationState state = fl.flow_state();  // over ranks: gathered on rank 0, which writes
       std::map<std::string, double> v;
       const CfdFlightStep& cur = fl.current();
       for (int i = 0; i < 12; ++i) v[fmt::format("x{}", i)] = cur.x(i);
@@ -392,9 +391,10 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
         std::string rows = steps_header(actuators);
         for (const auto& s : steps) rows += steps_row(s, T);
         write_file_atomic(ck_rows, rows);
-        ns::write_state(ck_path, state, v, {{"key", key}, {"replans", f.replans.dump()}});
         return std::string();
       });
+      // Over ranks rank 0 writes it, taking the slabs one at a time.
+      ns::write_state(ck_path, fl.simulation(), v, {{"key", key}, {"replans", f.replans.dump()}});
     };
     const auto tr = std::chrono::steady_clock::now();
     const long start_step = steps.back().step;

@@ -296,7 +296,6 @@ struct Ranks {
     if (answer.empty()) return std::nullopt;
     return answer.substr(1);
   }
-  SimulationState to_keep(const Simulation& sim) const { return d->distributed() ? sim.whole_state() : sim.state(); }
   // A kept (whole-grid) state of grid `whole` read back: over ranks only this rank's planes (ghost planes included)
   // are read, so no rank holds the whole grid; the flows restore either.
   SimulationState read(const CheckpointReader& ck, const Grid& whole) const {
@@ -328,12 +327,10 @@ struct PartialRun {
     return std::nullopt;
   }
   void keep(const Ranks& ranks, const std::string& key, const Simulation& sim, nlohmann::json measured) const {
-    const SimulationState state = ranks.to_keep(sim);
+    write_state(h5, sim, {}, {{"key", key}});  // over ranks rank 0 writes it, taking the slabs one at a time
     ranks.on_lead([&] {
-      fs::create_directories(fs::path(h5).parent_path());
-      write_state(h5, state, {}, {{"key", key}});
       measured["key"] = key;
-      measured["step"] = state.step;
+      measured["step"] = sim.step();
       write_file_atomic(json, measured.dump(1) + "\n");
     });
   }
@@ -503,10 +500,8 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                         "hover_tolerance {:g}); its state is kept and perturbations are measured against its "
                         "continuation\n", pr.cycles.size(), pr.final_change(), st->hover_settings.tolerance));
       if (!cache_.empty()) {
-        const SimulationState whole = ranks.to_keep(sim);
+        write_state(file("hover.h5"), sim, {}, {{"key", st->key}});
         ranks.on_lead([&] {
-          fs::create_directories(cache_);
-          write_state(file("hover.h5"), whole, {}, {{"key", st->key}});
           nlohmann::json j = {{"key", st->key}, {"cycles", cycles_json(pr.cycles)}, {"converged", pr.converged},
                               {"wall_s", pr.wall_seconds}, {"last_cycle", rows_json(pr.last_cycle)}};
           write_file_atomic(file("hover.json"), j.dump(1) + "\n");
@@ -798,9 +793,8 @@ void CfdModel::continue_reference(int k) const {
     say(fmt::format("  reference wingbeat {:>2}: mean F = ({:+.4e}, {:+.4e}, {:+.4e}) N\n", cr.cycle,
                     cr.mean.force.x(), cr.mean.force.y(), cr.mean.force.z()));
     if (!cache_.empty()) {
-      const SimulationState whole = ranks.to_keep(*st.ref_sim);
+      write_state(file("reference.h5"), *st.ref_sim, {}, {{"key", st.key}});
       ranks.on_lead([&] {
-        write_state(file("reference.h5"), whole, {}, {{"key", st.key}});
         nlohmann::json rows = nlohmann::json::array();
         for (const auto& r : st.ref_rows) rows.push_back(rows_json(r));
         write_file_atomic(file("reference.json"),

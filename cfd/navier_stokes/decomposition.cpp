@@ -1,5 +1,6 @@
 // Slabs along z over MPI ranks (see decomposition.hpp).
 #include "cfd/navier_stokes/decomposition.hpp"
+#include <limits>
 #include "cfd/navier_stokes/mpi_start.hpp"
 #include <algorithm>
 #include <cstdlib>
@@ -281,6 +282,26 @@ void Decomposition::broadcast(std::string& text) const {
   if (length > 0) MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, comm_->comm);
 }
 
+namespace {
+int message_count(std::size_t count) {
+  if (count > std::size_t(std::numeric_limits<int>::max()))
+    throw std::length_error("a slab of more than 2^31 values in one message");
+  return int(count);
+}
+}  // namespace
+
+void Decomposition::send_to_root(const double* v, std::size_t count, int tag) const {
+  const Timed timed(traffic_.seconds);
+  ++traffic_.gathers;
+  traffic_.bytes += double(count) * sizeof(double);
+  MPI_Send(v, message_count(count), MPI_DOUBLE, 0, tag, comm_->comm);
+}
+
+void Decomposition::receive_from(int from, double* v, std::size_t count, int tag) const {
+  const Timed timed(traffic_.seconds);
+  MPI_Recv(v, message_count(count), MPI_DOUBLE, from, tag, comm_->comm, MPI_STATUS_IGNORE);
+}
+
 void Decomposition::broadcast(double* v, int n) const {
   if (!comm_ || size_ <= 1) return;
   const Timed timed(traffic_.seconds);
@@ -307,6 +328,12 @@ double Decomposition::max(double v) const { return v; }
 void Decomposition::broadcast(std::string&) const {}
 void Decomposition::scatter_field(const Field& whole, const std::vector<Slab>&, Field& local) const { local = whole; }
 void Decomposition::broadcast(double*, int) const {}
+void Decomposition::send_to_root(const double*, std::size_t, int) const {
+  throw std::logic_error("Decomposition::send_to_root without MPI");
+}
+void Decomposition::receive_from(int, double*, std::size_t, int) const {
+  throw std::logic_error("Decomposition::receive_from without MPI");
+}
 #endif
 
 }  // namespace flapstab::ns

@@ -85,6 +85,11 @@ class Decomposition {
   // receiving its slab's planes offset .. offset + n + 1 (its ghost planes included) into `local` (the slab's shape).
   void scatter_field(const Field& whole, const std::vector<Slab>& slabs, Field& local) const;
 
+  // Point to point with rank 0 (a checkpoint streamed to rank 0 one slab at a time): this rank's `count` values sent to
+  // rank 0, and rank 0 receiving `count` values from rank `from`; messages of one tag arrive in the order sent.
+  void send_to_root(const double* v, std::size_t count, int tag) const;
+  void receive_from(int from, double* v, std::size_t count, int tag) const;
+
   double sum(double v) const;
   void sum(double* v, int n) const;  // element-wise, in place
   double max(double v) const;

@@ -570,6 +570,71 @@ std::uint64_t checksum_continued(std::uint64_t h, std::span<const double> data) 
 
 std::uint64_t checkpoint_checksum(std::span<const double> data) { return checksum_continued(fnv1a64_basis, data); }
 
+namespace {
+
+// The checkpoint's header and its groups; returns the group the arrays go in.
+Id write_checkpoint_header(hid_t file, const std::string& path, const CheckpointHeader& header) {
+  write_string_attribute(file, "format", "flapstab-checkpoint", path);
+  write_number_attribute<std::int64_t>(file, "format_version", checkpoint_format_version, path);
+  write_number_attribute(file, "time", header.time, path);
+  write_string_attribute(file, "time_units", "s", path);
+  write_number_attribute<std::int64_t>(file, "step", header.step, path);
+  Id values(checked(H5Gcreate2(file, "values", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group values"),
+            H5Gclose);
+  for (const auto& [k, v] : header.values) write_number_attribute(values, k.c_str(), v, path);
+  Id text(checked(H5Gcreate2(file, "text", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group text"), H5Gclose);
+  for (const auto& [k, v] : header.text) write_string_attribute(text, k.c_str(), v, path);
+  return Id(checked(H5Gcreate2(file, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group arrays"),
+            H5Gclose);
+}
+
+void check_header_names(const CheckpointHeader& header) {
+  for (const auto& [k, v] : header.values) check_name(k, "checkpoint value");
+  for (const auto& [k, v] : header.text) check_name(k, "checkpoint text");
+}
+
+}  // namespace
+
+void write_checkpoint(const std::string& path, const CheckpointHeader& header,
+                      const std::vector<CheckpointRowArray>& arrays) {
+  for (const auto& a : arrays) {
+    check_name(a.name, "checkpoint array");
+    if (a.shape.empty() || !a.next) throw std::invalid_argument("checkpoint array '" + a.name + "': no rows");
+  }
+  check_header_names(header);
+  QuietErrors quiet;
+  write_hdf5_atomic(path, [&](hid_t file) {
+    const Id group = write_checkpoint_header(file, path, header);
+    for (const auto& a : arrays) {
+      const std::vector<hsize_t> dims(a.shape.begin(), a.shape.end());
+      const std::size_t rows = a.shape[0],
+                        row = std::accumulate(a.shape.begin() + 1, a.shape.end(), std::size_t(1), std::multiplies<>());
+      Id space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose);
+      Id set(checked(H5Dcreate2(group, a.name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                     path, "dataset " + a.name),
+             H5Dclose);
+      std::uint64_t h = fnv1a64_basis;
+      for (std::size_t r0 = 0; r0 < rows;) {
+        const std::span<const double> piece = a.next();
+        if (piece.empty() || piece.size() % row != 0 || r0 + piece.size() / row > rows)
+          throw std::invalid_argument("checkpoint array '" + a.name + "': its rows do not add up to its shape");
+        std::vector<hsize_t> start(dims.size(), 0), count(dims.begin(), dims.end());
+        start[0] = r0;
+        count[0] = piece.size() / row;
+        checked_status(H5Sselect_hyperslab(space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
+                       "hyperslab");
+        const hsize_t m = piece.size();
+        Id mem(H5Screate_simple(1, &m, nullptr), H5Sclose);
+        checked_status(H5Dwrite(set, H5T_NATIVE_DOUBLE, mem, space, H5P_DEFAULT, piece.data()), path,
+                       "dataset " + a.name);
+        h = checksum_continued(h, piece);
+        r0 += count[0];
+      }
+      write_string_attribute(set, "checksum", fnv1a64_hex_of(h), path);
+    }
+  });
+}
+
 void write_checkpoint(const std::string& path, const CheckpointHeader& header,
                       const std::vector<CheckpointArray>& arrays) {
   for (const auto& a : arrays) {
@@ -578,22 +643,10 @@ void write_checkpoint(const std::string& path, const CheckpointHeader& header,
         std::accumulate(a.shape.begin(), a.shape.end(), std::size_t(1), std::multiplies<>()) != a.data.size())
       throw std::invalid_argument("checkpoint array '" + a.name + "': shape does not match its size");
   }
-  for (const auto& [k, v] : header.values) check_name(k, "checkpoint value");
-  for (const auto& [k, v] : header.text) check_name(k, "checkpoint text");
+  check_header_names(header);
   QuietErrors quiet;
   write_hdf5_atomic(path, [&](hid_t file) {
-    write_string_attribute(file, "format", "flapstab-checkpoint", path);
-    write_number_attribute<std::int64_t>(file, "format_version", checkpoint_format_version, path);
-    write_number_attribute(file, "time", header.time, path);
-    write_string_attribute(file, "time_units", "s", path);
-    write_number_attribute<std::int64_t>(file, "step", header.step, path);
-    Id values(checked(H5Gcreate2(file, "values", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group values"),
-              H5Gclose);
-    for (const auto& [k, v] : header.values) write_number_attribute(values, k.c_str(), v, path);
-    Id text(checked(H5Gcreate2(file, "text", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group text"), H5Gclose);
-    for (const auto& [k, v] : header.text) write_string_attribute(text, k.c_str(), v, path);
-    Id group(checked(H5Gcreate2(file, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "group arrays"),
-             H5Gclose);
+    const Id group = write_checkpoint_header(file, path, header);
     for (const auto& a : arrays) {
       std::vector<hsize_t> dims(a.shape.begin(), a.shape.end());
       if (dims.empty()) dims.push_back(a.data.size());

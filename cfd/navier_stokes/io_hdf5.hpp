@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <functional>
 #include <map>
 #include <span>
 #include <string>
@@ -129,6 +130,19 @@ std::uint64_t checkpoint_checksum(std::span<const double> data);
 // Writes every array bit for bit (IEEE float64) and the header into one HDF5 file, atomically.
 void write_checkpoint(const std::string& path, const CheckpointHeader& header,
                       const std::vector<CheckpointArray>& arrays);
+
+// An array handed over in whole rows (along its first dimension) by a source: `next()` returns the following rows
+// (a whole number of them, at least one) until all shape[0] rows are given; the span need stay valid only until the
+// next call. The file is the same as write_checkpoint's of the whole array, checksum included.
+struct CheckpointRowArray {
+  std::string name;
+  std::vector<std::size_t> shape;  // at least one dimension
+  std::function<std::span<const double>()> next;
+};
+// Writes the header and the arrays, each streamed through from its source in order (only one piece held at a time),
+// atomically; std::invalid_argument for a source whose rows do not add up to the shape.
+void write_checkpoint(const std::string& path, const CheckpointHeader& header,
+                      const std::vector<CheckpointRowArray>& arrays);
 
 // Opens a checkpoint; InputError for a missing or unreadable file, one that is not a flapstab
 // checkpoint, or one of a newer format version.

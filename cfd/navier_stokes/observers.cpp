@@ -127,11 +127,10 @@ void Checkpointer::write(const Simulation& sim) {
   // a checkpoint beyond the rows.
   if (csv_) csv_->flush();
   for (const auto& f : flush_) f();
-  const SimulationState state = sim.whole_state();  // gathered on rank 0 over ranks
   std::map<std::string, double> values = values_;
   if (D.distributed()) values["ranks"] = D.size();
+  write_state(path, sim, values, text_);  // over ranks rank 0 writes it, taking the slabs one at a time
   on_root(D, [&] {
-    write_state(path, state, values, text_);
     auto list = checkpoints_in(dir_);  // keep the newest
     for (std::size_t i = 0; i + std::size_t(keep_) < list.size(); ++i) fs::remove(list[i].second);
   });

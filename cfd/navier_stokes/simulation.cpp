@@ -434,16 +434,27 @@ SimulationState transfer_state(const SimulationState& s, const Grid& from, const
   return r;
 }
 
+CheckpointHeader state_header(double time, long step, double dt_last, bool guess, std::map<std::string, double> values,
+                              std::map<std::string, std::string> text) {
+  CheckpointHeader h;
+  h.time = time;
+  h.step = step;
+  h.values = std::move(values);
+  h.values["dt"] = dt_last;
+  h.values["guess"] = guess ? 1.0 : 0.0;
+  h.text = std::move(text);
+  return h;
+}
+
+void write_state(const std::string& path, const Simulation& sim, std::map<std::string, double> values,
+                 std::map<std::string, std::string> text) {
+  write_state_over_ranks(path, sim.solver(), sim.step(), sim.last_dt(), std::move(values), std::move(text));
+}
+
 void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,
                  std::map<std::string, std::string> text) {
   const Shape sh = s.p.shape();
-  CheckpointHeader h;
-  h.time = s.time;
-  h.step = s.step;
-  h.values = std::move(values);
-  h.values["dt"] = s.dt_last;
-  h.values["guess"] = s.guess ? 1.0 : 0.0;
-  h.text = std::move(text);
+  const CheckpointHeader h = state_header(s.time, s.step, s.dt_last, s.guess, std::move(values), std::move(text));
   std::vector<CheckpointArray> arrays;
   const std::vector<std::size_t> shape = {std::size_t(sh.nz + 2), std::size_t(sh.ny + 2), std::size_t(sh.nx + 2)};
   for (int d = 0; d < 3; ++d)

@@ -175,6 +175,14 @@ SimulationState transfer_state(const SimulationState& s, const Grid& from, const
 // header time, step, dt, guess plus the given values and texts.
 void write_state(const std::string& path, const SimulationState& s, std::map<std::string, double> values,
                  std::map<std::string, std::string> text);
+// The same file written from a simulation over any number of ranks, collectively: rank 0 writes it, receiving the
+// other ranks' planes one slab of one array at a time (no rank holds the whole grid), and an error there (a directory
+// that cannot be written) is thrown on every rank.
+void write_state(const std::string& path, const Simulation& sim, std::map<std::string, double> values,
+                 std::map<std::string, std::string> text);
+// The header write_state gives a state: its time and step, and the values dt and guess beside the given ones.
+CheckpointHeader state_header(double time, long step, double dt_last, bool guess, std::map<std::string, double> values,
+                              std::map<std::string, std::string> text);
 // InputError naming the file and array for a checkpoint without the state or of another grid shape.
 SimulationState read_state(const CheckpointReader& ck, const Shape& shape);
 // The planes of a slab of the whole grid `whole` (its own planes and ghost planes, as Simulation::state() over ranks

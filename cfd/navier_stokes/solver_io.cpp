@@ -1,6 +1,7 @@
 // Whole-grid checkpoints and fields of a decomposed solver (see solver_io.hpp).
 #include "cfd/navier_stokes/solver_io.hpp"
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <fmt/format.h>
@@ -54,11 +55,63 @@ SimulationState scatter_state(const SimulationState& whole, const Solver& s) {
   return st;
 }
 
+void write_state_over_ranks(const std::string& path, const Solver& s, long step, double dt_last,
+                            std::map<std::string, double> values, std::map<std::string, std::string> text) {
+  const Decomposition& D = s.decomposition();
+  const std::vector<Slab>& slabs = s.slabs();
+  const std::array<const Field*, 7> fields = {&s.velocity()[0],           &s.velocity()[1],
+                                              &s.velocity()[2],           &s.pressure(),
+                                              &s.pressure_increments()[0], &s.pressure_increments()[1],
+                                              &s.pressure_increments()[2]};
+  const char* names[7] = {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"};
+  const Shape local = s.grid().shape(), whole = s.whole_grid().shape();
+  const std::size_t plane = std::size_t(local.sz);
+  const int P = D.size();
+  // Rank r's planes of the whole array: the first rank's from its ghost plane 0, the last rank's up to its ghost
+  // plane n + 1 (as gather_field takes them).
+  auto first_plane = [&](int r) { return r == 0 ? 0 : 1; };
+  auto planes = [&](int r) { return slabs[std::size_t(r)].n + (r + 1 == P ? 1 : 0) - first_plane(r) + 1; };
+  constexpr int tag = 90;
+  if (D.rank() != 0)
+    for (int f = 0; f < 7; ++f)
+      D.send_to_root(fields[std::size_t(f)]->data() + std::size_t(first_plane(D.rank())) * plane,
+                     std::size_t(planes(D.rank())) * plane, tag + f);
+  from_root(D, [&] {
+    // Rank 0 takes the messages in order (array f, rank r): f (P - 1) + r - 1 of 7 (P - 1).
+    const int messages = 7 * (P - 1);
+    int received = 0;
+    std::vector<double> buffer;
+    std::vector<CheckpointRowArray> arrays;
+    const std::vector<std::size_t> shape = {std::size_t(whole.nz + 2), std::size_t(whole.ny + 2),
+                                            std::size_t(whole.nx + 2)};
+    for (int f = 0; f < 7; ++f)
+      arrays.push_back({names[f], shape, [&, f, r = 0]() mutable -> std::span<const double> {
+                          const int from = r++;
+                          const std::size_t count = std::size_t(planes(from)) * plane;
+                          if (from == 0) return {fields[std::size_t(f)]->data(), count};
+                          buffer.resize(count);
+                          D.receive_from(from, buffer.data(), count, tag + f);
+                          ++received;
+                          return buffer;
+                        }});
+    try {
+      write_checkpoint(path, state_header(s.time(), step, dt_last, s.has_guess(), values, text), arrays);
+    } catch (...) {  // the other ranks' slabs still on their way are taken in, so that their sends complete
+      for (; received < messages; ++received) {
+        const int f = received / (P - 1), from = received % (P - 1) + 1;
+        buffer.resize(std::size_t(planes(from)) * plane);
+        D.receive_from(from, buffer.data(), buffer.size(), tag + f);
+      }
+      throw;
+    }
+    return std::string();
+  });
+}
+
 void write_solver_checkpoint(const std::string& path, const Solver& s, long step, double dt_last,
                              std::map<std::string, double> values, std::map<std::string, std::string> text) {
-  const SimulationState st = gather_state(s, step, dt_last);
   values["ranks"] = s.decomposition().size();
-  on_root(s.decomposition(), [&] { write_state(path, st, values, text); });
+  write_state_over_ranks(path, s, step, dt_last, std::move(values), std::move(text));
 }
 
 std::string slab_planes_text(const Solver& s) {

@@ -1,8 +1,8 @@
 // Checkpoints and flow-field output of a Solver on any number of ranks (decomposition.hpp): the files are those of
 // the whole grid, the same as one rank writes (flapstab cfd's checkpoint layout, docs/cfd-files.md), written by
-// rank 0 from the gathered slabs, so a run can be restarted on another number of ranks and ParaView opens one data
-// set. Every rank must make the same calls. The whole fields pass through rank 0's memory: a gather, not parallel
-// HDF5 (Debian's serial HDF5 is the one linked).
+// rank 0, so a run can be restarted on another number of ranks and ParaView opens one data set. Every rank must make
+// the same calls. Checkpoints reach rank 0 one slab of one array at a time (write_state_over_ranks); whole field
+// files are gathered there (Debian's serial HDF5 is the one linked: no parallel HDF5).
 #pragma once
 #include <map>
 #include <string>
@@ -36,8 +36,14 @@ std::vector<double> gather_cells(const Solver& s, std::vector<double> own);
 // Collective.
 void gather_flow(const Solver& s, VectorField& u, Field& p);
 
-// Writes the whole state as a checkpoint (write_state: arrays u0 u1 u2 p phi0 phi1 phi2 bit for bit); rank 0 writes,
-// and an error there (a directory that cannot be written) is thrown on every rank.
+// The solver's state written as a checkpoint of the whole grid (write_state's file: arrays u0 u1 u2 p phi0 phi1 phi2
+// bit for bit, header state_header), collectively: rank 0 writes, receiving each other rank's planes of one array at
+// a time, so no rank holds the whole grid; an error there (a directory that cannot be written) is thrown on every
+// rank, after rank 0 has taken in every message still on its way.
+void write_state_over_ranks(const std::string& path, const Solver& s, long step, double dt_last,
+                            std::map<std::string, double> values, std::map<std::string, std::string> text);
+
+// The same with the number of ranks that wrote it in the header (value "ranks").
 void write_solver_checkpoint(const std::string& path, const Solver& s, long step, double dt_last,
                              std::map<std::string, double> values = {}, std::map<std::string, std::string> text = {});
 

@@ -630,6 +630,37 @@ TEST_F(NsIo, CheckpointRoundTripIsBitwise) {
 // read_rows: rows along an array's first dimension (a rank's planes of a checkpoint), streamed in chunks (here of 2
 // rows, 3 chunks): the rows are the whole read's, and the whole array's checksum is checked, so damage outside the
 // rows read is still found.
+// An array handed to the writer in pieces of whole rows (unequal: 1, 3 and 2 rows) makes the file of the whole
+// array: the same values and the same checksum (read() checks it); pieces that do not add up to the shape are refused.
+TEST_F(NsIo, CheckpointWrittenRowsAtATimeIsTheWholeArraysFile) {
+  std::vector<double> a(6 * 4 * 5);
+  for (std::size_t i = 0; i < a.size(); ++i) a[i] = std::cos(0.3 * double(i)) * double(i);
+  CheckpointHeader h;
+  h.step = 7;
+  h.values["dt"] = 0.25;
+  write_checkpoint(path("whole.h5"), h, {{"a", a, {6, 4, 5}}});
+  const std::size_t cuts[] = {0, 1, 4, 6};
+  int piece = 0;
+  auto next = [&]() -> std::span<const double> {
+    const std::size_t r0 = cuts[piece], r1 = cuts[piece + 1];
+    ++piece;
+    return {a.data() + 20 * r0, 20 * (r1 - r0)};
+  };
+  write_checkpoint(path("pieces.h5"), h, std::vector<CheckpointRowArray>{{"a", {6, 4, 5}, next}});
+  EXPECT_EQ(piece, 3);
+  const CheckpointReader w(path("whole.h5")), p(path("pieces.h5"));
+  EXPECT_EQ(p.header().step, 7);
+  EXPECT_EQ(p.header().values.at("dt"), 0.25);
+  EXPECT_EQ(p.shape("a"), w.shape("a"));
+  EXPECT_EQ(p.read("a"), a);  // and its checksum matched
+  const std::size_t sizes[] = {1, 3, 3};  // 7 rows for 6: the last piece overruns
+  piece = 0;
+  auto wrong = [&]() -> std::span<const double> { return {a.data(), 20 * sizes[std::min(piece++, 2)]}; };
+  EXPECT_THROW(write_checkpoint(path("wrong.h5"), h, std::vector<CheckpointRowArray>{{"a", {6, 4, 5}, wrong}}),
+               std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(path("wrong.h5")));
+}
+
 TEST_F(NsIo, CheckpointRowsAreTheWholeArraysAndItsChecksumIsChecked) {
   std::vector<double> a(6 * 4 * 5);
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = std::sin(0.1 * double(i)) + double(i);

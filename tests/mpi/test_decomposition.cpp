@@ -422,6 +422,30 @@ TEST(Decomposition, ScatteredStateIsEachRanksOwnPlanesOfTheGatheredOne) {
   EXPECT_TRUE(same(mine.p, part.pressure())) << "on rank " << world()->rank();
 }
 
+// A checkpoint streamed to rank 0 slab by slab (write_state_over_ranks: no rank holds the whole grid) is the file
+// of the gathered state, array for array bit for bit; a checkpoint that rank 0 cannot write fails on every rank,
+// and the ranks go on together (no slab left on its way).
+TEST(Decomposition, CheckpointStreamedSlabBySlabIsTheGatheredStatesFile) {
+  const WalledCase c;
+  Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
+  c.start(part, whole, 3);
+  write_state_over_ranks(shared_path("streamed.h5"), part, 3, c.opt.dt, {{"extra", 1.5}}, {{"note", "x"}});
+  const SimulationState gathered = gather_state(part, 3, c.opt.dt);
+  on_root(*world(), [&] { write_state(shared_path("gathered.h5"), gathered, {{"extra", 1.5}}, {{"note", "x"}}); });
+  const CheckpointReader a(shared_path("streamed.h5")), b(shared_path("gathered.h5"));
+  EXPECT_EQ(a.header().step, 3);
+  EXPECT_EQ(a.header().time, b.header().time);
+  EXPECT_EQ(a.header().values, b.header().values);
+  EXPECT_EQ(a.header().text, b.header().text);
+  for (const char* name : {"u0", "u1", "u2", "p", "phi0", "phi1", "phi2"}) {
+    EXPECT_EQ(a.shape(name), b.shape(name)) << name;
+    EXPECT_TRUE(a.read(name) == b.read(name)) << name;  // each read checks its array's checksum
+  }
+  EXPECT_THROW(write_state_over_ranks("/dev/null/cannot/streamed.h5", part, 3, c.opt.dt, {}, {}),
+               flapstab::OutputError);
+  EXPECT_EQ(world()->sum(1.0), double(world()->size()));  // every rank reached here: nothing left hanging
+}
+
 // The decomposed solver's field file (gathered on rank 0) holds the single-rank solver's fields to round-off.
 TEST(Decomposition, FieldsAreTheWholeGridsFile) {
   const WalledCase c;
