@@ -360,16 +360,15 @@ void CfdFlight::maybe_replan(const std::vector<ns::BoundingBox>& boxes) {
       ns::check_memory(next, case_.path, free + sim_->bytes());  // the old grid's memory is released first
     return std::string();
   });
-  // Over ranks the flow is carried over on rank 0 (the whole grid gathered there) and each rank receives its planes
-  // of the new grid: the same values as in one process.
-  std::optional<ns::SimulationState> flow = sim_->whole_state();
+  // Over ranks the flow is carried over on rank 0 (the old grid gathered there), which sends each rank its planes of
+  // the new grid, one slab at a time: the same values as in one process.
+  ns::SimulationState flow = sim_->whole_state();
   const ns::Grid from = sim_->whole_grid();
   rebuild(shift);
-  ns::SimulationState moved;
-  if (!ranks_ || ranks_->rank() == 0) moved = ns::transfer_state(*flow, from, sim_->whole_grid());
-  flow.reset();
+  ns::SimulationState moved = ns::transfer_state_over_ranks(flow, from, sim_->solver());
+  flow = ns::SimulationState{};
   sim_->set_part_source([this](double t) { return parts_at(t); });
-  sim_->restore(ns::scatter_state(moved, sim_->solver()));
+  sim_->restore(moved);
   CfdReplan r;
   r.step = sim_->step();
   r.time = sim_->time();

@@ -211,28 +211,6 @@ void Decomposition::gather_field(const Field& local, const std::vector<Slab>& sl
               rank_ == 0 ? whole.data() : nullptr, counts.data(), displs.data(), MPI_DOUBLE, 0, comm_->comm);
 }
 
-void Decomposition::scatter_field(const Field& whole, const std::vector<Slab>& slabs, Field& local) const {
-  const Shape& s = local.shape();
-  if (!comm_ || size_ < 2) {
-    local = whole;
-    return;
-  }
-  const Timed timed(traffic_.seconds);
-  ++traffic_.gathers;
-  constexpr int tag = 71;
-  if (rank_ != 0) {
-    MPI_Recv(local.data(), int(s.size()), MPI_DOUBLE, 0, tag, comm_->comm, MPI_STATUS_IGNORE);
-    return;
-  }
-  for (int r = 1; r < size_; ++r) {  // planes offset .. offset + n + 1 of the whole array are contiguous
-    const Slab& sl = slabs[std::size_t(r)];
-    const int count = int(s.sz) * (sl.n + 2);
-    traffic_.bytes += double(count) * sizeof(double);
-    MPI_Send(whole.data() + whole.shape()(0, 0, sl.offset), count, MPI_DOUBLE, r, tag, comm_->comm);
-  }
-  std::copy_n(whole.data() + whole.shape()(0, 0, slabs[0].offset), s.size(), local.data());
-}
-
 void Decomposition::widen(const Field& local, const Slab& sl, int depth, Field& window) const {
   const Shape& s = local.shape();
   const int lo = sl.cut_lo ? depth : 0;
@@ -290,11 +268,11 @@ int message_count(std::size_t count) {
 }
 }  // namespace
 
-void Decomposition::send_to_root(const double* v, std::size_t count, int tag) const {
+void Decomposition::send_to(int to, const double* v, std::size_t count, int tag) const {
   const Timed timed(traffic_.seconds);
   ++traffic_.gathers;
   traffic_.bytes += double(count) * sizeof(double);
-  MPI_Send(v, message_count(count), MPI_DOUBLE, 0, tag, comm_->comm);
+  MPI_Send(v, message_count(count), MPI_DOUBLE, to, tag, comm_->comm);
 }
 
 void Decomposition::receive_from(int from, double* v, std::size_t count, int tag) const {
@@ -326,10 +304,9 @@ double Decomposition::sum(double v) const { return v; }
 void Decomposition::sum(double*, int) const {}
 double Decomposition::max(double v) const { return v; }
 void Decomposition::broadcast(std::string&) const {}
-void Decomposition::scatter_field(const Field& whole, const std::vector<Slab>&, Field& local) const { local = whole; }
 void Decomposition::broadcast(double*, int) const {}
-void Decomposition::send_to_root(const double*, std::size_t, int) const {
-  throw std::logic_error("Decomposition::send_to_root without MPI");
+void Decomposition::send_to(int, const double*, std::size_t, int) const {
+  throw std::logic_error("Decomposition::send_to without MPI");
 }
 void Decomposition::receive_from(int, double*, std::size_t, int) const {
   throw std::logic_error("Decomposition::receive_from without MPI");

@@ -81,13 +81,11 @@ class Decomposition {
   // The slabs of a padded field gathered into the whole field on rank 0 (`whole`, the whole grid's shape, is
   // untouched elsewhere): each rank's planes 1 .. n, and the end ranks' outer ghost planes.
   void gather_field(const Field& local, const std::vector<Slab>& slabs, Field& whole) const;
-  // The inverse: rank 0's whole field (`whole`, the whole grid's shape; unused elsewhere) sent to the ranks, each
-  // receiving its slab's planes offset .. offset + n + 1 (its ghost planes included) into `local` (the slab's shape).
-  void scatter_field(const Field& whole, const std::vector<Slab>& slabs, Field& local) const;
 
-  // Point to point with rank 0 (a checkpoint streamed to rank 0 one slab at a time): this rank's `count` values sent to
-  // rank 0, and rank 0 receiving `count` values from rank `from`; messages of one tag arrive in the order sent.
-  void send_to_root(const double* v, std::size_t count, int tag) const;
+  // Point to point (a checkpoint streamed to rank 0 one slab at a time, a re-planned grid's slabs sent from it):
+  // `count` values sent to rank `to`, received from rank `from`; messages of one tag between two ranks arrive in the
+  // order sent.
+  void send_to(int to, const double* v, std::size_t count, int tag) const;
   void receive_from(int from, double* v, std::size_t count, int tag) const;
 
   double sum(double v) const;

@@ -33,26 +33,31 @@ SimulationState gather_state(const Solver& s, long step, double dt_last) {
   return st;
 }
 
-SimulationState scatter_state(const SimulationState& whole, const Solver& s) {
-  const Decomposition& D = s.decomposition();
-  if (!D.distributed()) return whole;
-  double head[4] = {whole.time, double(whole.step), whole.dt_last, whole.guess ? 1.0 : 0.0};
-  D.broadcast(head, 4);
-  SimulationState st;
-  st.time = head[0];
-  st.step = std::lround(head[1]);
-  st.dt_last = head[2];
-  st.guess = head[3] != 0;
-  const Shape sh = s.grid().shape();
-  st.u = VectorField(sh);
-  st.phi = VectorField(sh);
-  st.p = Field(sh);
-  for (int d = 0; d < 3; ++d) {
-    D.scatter_field(whole.u[d], s.slabs(), st.u[d]);
-    D.scatter_field(whole.phi[d], s.slabs(), st.phi[d]);
+SimulationState transfer_state_over_ranks(const SimulationState& whole, const Grid& from, const Solver& to) {
+  const Decomposition& D = to.decomposition();
+  if (!D.distributed()) return transfer_state(whole, from, to.whole_grid());
+  const std::vector<Slab>& slabs = to.slabs();
+  constexpr int tag = 100;
+  auto fields = [](SimulationState& st) { return std::array<Field*, 4>{&st.u[0], &st.u[1], &st.u[2], &st.p}; };
+  if (D.rank() != 0) {
+    SimulationState mine;  // time, step and last dt: the same on every rank (the run's own)
+    mine.time = whole.time;
+    mine.step = whole.step;
+    mine.dt_last = whole.dt_last;
+    const Shape sh = to.grid().shape();
+    mine.u = VectorField(sh);
+    mine.phi = VectorField(sh);
+    mine.p = Field(sh);
+    for (Field* f : fields(mine)) D.receive_from(0, f->data(), f->shape().size(), tag);
+    return mine;
   }
-  D.scatter_field(whole.p, s.slabs(), st.p);
-  return st;
+  // Rank 0: each other rank's slab of the new grid (its ghost planes included) computed from the whole old state and
+  // sent, one slab at a time; its own last.
+  for (int r = 1; r < D.size(); ++r) {
+    SimulationState theirs = transfer_state(whole, from, to.whole_grid().slice_z(slabs[std::size_t(r)]));
+    for (Field* f : fields(theirs)) D.send_to(r, f->data(), f->shape().size(), tag);
+  }
+  return transfer_state(whole, from, to.grid());
 }
 
 void write_state_over_ranks(const std::string& path, const Solver& s, long step, double dt_last,
@@ -74,8 +79,8 @@ void write_state_over_ranks(const std::string& path, const Solver& s, long step,
   constexpr int tag = 90;
   if (D.rank() != 0)
     for (int f = 0; f < 7; ++f)
-      D.send_to_root(fields[std::size_t(f)]->data() + std::size_t(first_plane(D.rank())) * plane,
-                     std::size_t(planes(D.rank())) * plane, tag + f);
+      D.send_to(0, fields[std::size_t(f)]->data() + std::size_t(first_plane(D.rank())) * plane,
+                std::size_t(planes(D.rank())) * plane, tag + f);
   from_root(D, [&] {
     // Rank 0 takes the messages in order (array f, rank r): f (P - 1) + r - 1 of 7 (P - 1).
     const int messages = 7 * (P - 1);

@@ -17,10 +17,11 @@ namespace flapstab::ns {
 // initial guesses, time, and the given step counter and last step.
 SimulationState gather_state(const Solver& s, long step, double dt_last);
 
-// The inverse: rank 0's whole-grid state (the fields of `whole` are not read elsewhere) sent to the ranks, each
-// receiving its slab's planes (ghost planes included) and rank 0's time, step, last dt and guess flag; on one rank,
-// `whole`. Collective. No rank but 0 holds the whole grid (own_planes of a whole state on every rank would).
-SimulationState scatter_state(const SimulationState& whole, const Solver& s);
+// transfer_state over ranks (a free flight's re-planned fine box): rank 0 holds the whole state `whole` of grid
+// `from` (the other ranks its time, step and last dt, e.g. gather_state's), and each rank receives its slab of `to`'s
+// grid, ghost planes included, computed on rank 0 one slab at a time: the planes of transfer_state on the whole new
+// grid, and no rank holds that. On one rank, transfer_state. Collective.
+SimulationState transfer_state_over_ranks(const SimulationState& whole, const Grid& from, const Solver& to);
 
 // The planes of this rank's slab (ghost planes included) of a whole-grid state, or the state itself when its fields
 // are not the whole grid's or there is one rank.

@@ -400,26 +400,30 @@ TEST(Decomposition, CheckpointsRestartOnAnotherNumberOfRanks) {
   EXPECT_THROW(read_solver_checkpoint(shared_path("ranks.h5"), other), flapstab::InputError);
 }
 
-// Scattering a gathered state gives every rank its own planes back, ghost planes included, bit for bit, with rank 0's
-// time, step and last dt (a free flight's fine box re-planned over ranks carries the flow over this way).
-TEST(Decomposition, ScatteredStateIsEachRanksOwnPlanesOfTheGatheredOne) {
+// A state carried over to another grid over ranks (a free flight's re-planned fine box: rank 0 computes each rank's
+// slab of the new grid from the gathered old state and sends it) gives every rank the planes, ghost planes included,
+// of the carried-over whole state, bit for bit.
+TEST(Decomposition, StateCarriedOverToAnotherGridIsTheWholeTransfersPlanes) {
   const WalledCase c;
   Solver part(c.g, c.bc, c.opt, world()), whole(c.g, c.bc, c.opt);
   c.start(part, whole, 3);
+  const Grid other = walled_grid(24, 16, 32);
+  Solver target(other, c.bc, c.opt, world());
   const SimulationState gathered = gather_state(part, 3, c.opt.dt);
-  const SimulationState mine = scatter_state(gathered, part);
+  const SimulationState mine = transfer_state_over_ranks(gathered, c.g, target);
   EXPECT_EQ(mine.step, 3);
   EXPECT_EQ(mine.time, part.time());
-  EXPECT_EQ(mine.dt_last, c.opt.dt);
-  EXPECT_EQ(mine.guess, part.has_guess());
+  // The whole old state on every rank (through a checkpoint, bit for bit), carried over to the whole new grid.
+  write_state_over_ranks(shared_path("carried.h5"), part, 3, c.opt.dt, {}, {});
+  const SimulationState all =
+      transfer_state(read_state(CheckpointReader(shared_path("carried.h5")), c.g.shape()), c.g, other);
+  const SimulationState expected = own_planes(all, target);
   auto same = [](const Field& a, const Field& b) {
     return a.shape() == b.shape() && std::equal(a.begin(), a.end(), b.begin());
   };
-  for (int d = 0; d < 3; ++d) {
-    EXPECT_TRUE(same(mine.u[d], part.velocity()[d])) << "u" << d << " on rank " << world()->rank();
-    EXPECT_TRUE(same(mine.phi[d], part.pressure_increments()[d])) << "phi" << d << " on rank " << world()->rank();
-  }
-  EXPECT_TRUE(same(mine.p, part.pressure())) << "on rank " << world()->rank();
+  for (int d = 0; d < 3; ++d) EXPECT_TRUE(same(mine.u[d], expected.u[d])) << "u" << d << " on rank " << world()->rank();
+  EXPECT_TRUE(same(mine.p, expected.p)) << "on rank " << world()->rank();
+  EXPECT_FALSE(mine.guess);
 }
 
 // A checkpoint streamed to rank 0 slab by slab (write_state_over_ranks: no rank holds the whole grid) is the file
