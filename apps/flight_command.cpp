@@ -76,7 +76,10 @@ ControllerSpec controller_from_case(const Case& c, const Kinematics& kin) {
   return spec;
 }
 
-int run_fly(const FlightCommandOptions& o) {
+namespace {
+
+// flapstab fly in this process (`ranks`: the processes mpiexec started, null for one).
+int fly(const FlightCommandOptions& o, const std::shared_ptr<const ns::Decomposition>& ranks) {
   const auto t0 = std::chrono::steady_clock::now();
   const Case c = load_case_for(o.case_path, "fly");
   if (c.aero.model != "cfd") require_quasi_steady(c, "fly");
@@ -106,18 +109,11 @@ int run_fly(const FlightCommandOptions& o) {
                        "the longitudinal mode moves u, w, q and theta, which the '" + dof_set_name(dofs) + "' set does not",
                        "dof = \"longitudinal\" or \"6dof\"");
   }
-  if (c.aero.model == "cfd") {
-    // Started by mpiexec: every flow of the flight (the hover, the CFD trim's runs, the reference and the perturbed
-    // flight) runs over all the processes, the grid in z slabs, as flapstab cfd's does.
-    if (ns::Decomposition::launched_processes() == 1) return run_fly_cfd(o, c, dir, dofs, wingbeats, moving);
-    std::shared_ptr<const ns::Decomposition> ranks;
-    try {
-      ranks = ns::Decomposition::launched();
-    } catch (const std::runtime_error& e) {  // several processes, but built without MPI
-      throw InputError("mpiexec", "-n", e.what(), "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS)");
-    }
-    return run_over_ranks(*ranks, "flapstab fly", [&] { return run_fly_cfd(o, c, dir, dofs, wingbeats, moving, ranks); });
-  }
+  // Started by mpiexec: every flow of the flight (the hover, the CFD trim's runs, the reference and the perturbed
+  // flight) runs over all the processes, the grid in z slabs, as flapstab cfd's does.
+  if (c.aero.model == "cfd") return run_fly_cfd(o, c, dir, dofs, wingbeats, moving, ranks);
+  // The quasi-steady flight is one process's work: under mpiexec rank 0 flies it and the others end.
+  if (ranks && ranks->rank() != 0) return 0;
   const auto model = make_aero_model(c);
   const std::vector<TrimParameterSpec> actuators = controller_actuators(c);
 
@@ -267,6 +263,20 @@ int run_fly(const FlightCommandOptions& o) {
     fmt::print("wrote {}/trajectory.csv, run.json{} in {:.2f} s\n", dir, svg ? ", response.svg" : "", seconds_since(t0));
   }
   return 0;
+}
+
+}  // namespace
+
+int run_fly(const FlightCommandOptions& o) {
+  if (ns::Decomposition::launched_processes() == 1) return fly(o, nullptr);
+  // Under mpiexec: MPI first, so that bad input is printed once (by rank 0) and ends every rank alike.
+  std::shared_ptr<const ns::Decomposition> ranks;
+  try {
+    ranks = ns::Decomposition::launched();
+  } catch (const std::runtime_error& e) {  // several processes, but built without MPI
+    throw InputError("mpiexec", "-n", e.what(), "one process (its threads: [aero.cfd] threads or OMP_NUM_THREADS)");
+  }
+  return run_over_ranks(*ranks, "flapstab fly", [&] { return fly(o, ranks); });
 }
 
 namespace {

@@ -275,6 +275,17 @@ TEST(CfdCli, FreeFlightOverRanksIsTheOneProcessFlight) {
   ASSERT_EQ(e.status, 0) << e.out << e.err;
   EXPECT_NE(e.out.find("resumed from"), std::string::npos) << e.out;
   expect_same_flight(r1, r3, 1e-6);
+  // Bad input under mpiexec: one message (rank 0's), exit status 2, nothing written.
+  const fs::path bad_dir = base / "cfdcli_fly_ranks_bad";
+  fs::remove_all(bad_dir);
+  const CfdRunOutput bad = run_flapstab(
+      "OMP_NUM_THREADS=1 " + mpiexec(2),
+      "fly " + write_temp("cfdcli_fly_ranks_bad.toml", replace(rest, "cells_per_chord", "cells_per_cord")) + " -o " +
+          bad_dir.string());
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  EXPECT_EQ(occurrences(bad.err, "flapstab: error"), 1) << bad.err;
+  EXPECT_NE(bad.err.find("aero.cfd.cells_per_cord"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(bad_dir));
 }
 
 // Force partitioning does not run over ranks yet: refused under mpiexec as bad input, before anything is written.
