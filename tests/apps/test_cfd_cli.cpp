@@ -243,10 +243,14 @@ TEST(CfdCli, FreeFlightOverRanksIsTheOneProcessFlight) {
   const fs::path one = base / "cfdcli_fly_one", two = base / "cfdcli_fly_two";
   fs::remove_all(one);
   fs::remove_all(two);
-  const CfdRunOutput a = run_flapstab("OMP_NUM_THREADS=1 ", "fly " + path + " -o " + one.string() + " --wingbeats 0.25");
+  // `launcher flapstab fly toml -o dir --wingbeats n` on one thread per process.
+  auto fly = [](const std::string& launcher, const std::string& toml, const fs::path& dir, const char* wingbeats) {
+    return run_flapstab("OMP_NUM_THREADS=1 " + launcher,
+                        "fly " + toml + " -o " + dir.string() + " --wingbeats " + wingbeats);
+  };
+  const CfdRunOutput a = fly("", path, one, "0.25");
   ASSERT_EQ(a.status, 0) << a.out << a.err;
-  const CfdRunOutput b =
-      run_flapstab("OMP_NUM_THREADS=1 " + mpiexec(2), "fly " + path + " -o " + two.string() + " --wingbeats 0.25");
+  const CfdRunOutput b = fly(mpiexec(2), path, two, "0.25");
   ASSERT_EQ(b.status, 0) << b.out << b.err;
   EXPECT_EQ(occurrences(b.out, "free flight of"), 1) << b.out;  // rank 0 speaks for both
   EXPECT_NE(b.out.find("every flow over 2 MPI ranks"), std::string::npos) << b.out;
@@ -264,14 +268,12 @@ TEST(CfdCli, FreeFlightOverRanksIsTheOneProcessFlight) {
   const fs::path r1 = base / "cfdcli_fly_replan_one", r3 = base / "cfdcli_fly_replan_three";
   fs::remove_all(r1);
   fs::remove_all(r3);
-  const CfdRunOutput c = run_flapstab("OMP_NUM_THREADS=1 ", "fly " + moved + " -o " + r1.string() + " --wingbeats 0.2");
+  const CfdRunOutput c = fly("", moved, r1, "0.2");
   ASSERT_EQ(c.status, 0) << c.out << c.err;
-  const CfdRunOutput d =
-      run_flapstab("OMP_NUM_THREADS=1 " + mpiexec(3), "fly " + moved + " -o " + r3.string() + " --wingbeats 0.1");
+  const CfdRunOutput d = fly(mpiexec(3), moved, r3, "0.1");
   ASSERT_EQ(d.status, 0) << d.out << d.err;
   EXPECT_NE(d.out.find("the fine box re-planned at wingbeat"), std::string::npos) << d.out;
-  const CfdRunOutput e =
-      run_flapstab("OMP_NUM_THREADS=1 " + mpiexec(2), "fly " + moved + " -o " + r3.string() + " --wingbeats 0.2");
+  const CfdRunOutput e = fly(mpiexec(2), moved, r3, "0.2");
   ASSERT_EQ(e.status, 0) << e.out << e.err;
   EXPECT_NE(e.out.find("resumed from"), std::string::npos) << e.out;
   expect_same_flight(r1, r3, 1e-6);
