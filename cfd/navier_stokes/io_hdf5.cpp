@@ -222,8 +222,9 @@ void write_field(hid_t loc, const CellField& f, const std::array<std::size_t, 3>
     for (int c = 0; c < nc; ++c) {
       const CellArray& a = f.components[std::size_t(c)];
       const std::ptrdiff_t sy = a.sy ? a.sy : std::ptrdiff_t(n[0]), sz = a.sz ? a.sz : std::ptrdiff_t(n[0] * n[1]);
+      const double* first = f.plane ? f.plane(k, c) : a.data + std::ptrdiff_t(k) * sz;  // the plane's cell (0, 0)
       for (std::size_t j = 0; j < n[1]; ++j) {
-        const double* row = a.data + std::ptrdiff_t(j) * sy + std::ptrdiff_t(k) * sz;
+        const double* row = first + std::ptrdiff_t(j) * sy;
         T* out = buf.data() + (j * n[0]) * std::size_t(nc) + std::size_t(c);
         for (std::size_t i = 0; i < n[0]; ++i) out[i * std::size_t(nc)] = T(row[std::ptrdiff_t(i) * a.sx]);
       }
@@ -451,7 +452,7 @@ FieldWriter::Record FieldWriter::write_file(const std::string& file, double time
     if (f.components.size() != 1 && f.components.size() != 3)
       throw std::invalid_argument("field '" + f.name + "' must have 1 or 3 components");
     for (const CellArray& a : f.components)
-      if (!a.data) throw std::invalid_argument("field '" + f.name + "' has a null component");
+      if (!a.data && !f.plane) throw std::invalid_argument("field '" + f.name + "' has a null component");
     if (std::any_of(r.fields.begin(), r.fields.end(), [&](const Record::Field& g) { return g.name == f.name; }))
       throw std::invalid_argument("field '" + f.name + "' given twice");
     r.fields.push_back({f.name, f.units, int(f.components.size())});

@@ -36,6 +36,11 @@ struct CellField {
   std::string name;   // letters, digits, '_', '-', '.'; the HDF5 dataset and the ParaView array name
   std::string units;  // SI, e.g. "m/s", "Pa", "1/s"
   std::vector<CellArray> components;
+  // Instead of the components' data (left null; their sx and sy still apply): the field handed over plane by plane,
+  // plane(k, c) giving component c's values at z plane k (0-based), asked for k = 0, 1, ... in order, the fields in
+  // turn (e.g. planes received from MPI ranks as the writer goes). The pointer need stay valid only until the next
+  // call.
+  std::function<const double*(std::size_t k, int c)> plane{};
 };
 
 enum class FieldPrecision { float64, float32 };

@@ -151,13 +151,22 @@ RectilinearAxes rectilinear(const Grid& g) {
   return a;
 }
 
-void FieldOutput::write_pieces(const Simulation& sim) {
+namespace {
+
+// This rank's planes of the field output: the fields computed on its slab widened by one plane at each cut (the
+// vorticity's central differences at the slab's end planes read the cell beyond, whose centred w reads the face
+// beyond that: the window's ghost plane), so that they are the whole grid's file's planes; the arrays start at the
+// slab's first plane.
+struct OwnPlanes {
+  FlowFields flow;
+  std::vector<double> solid;
+  std::vector<CellField> fields;  // velocity, pressure, vorticity, q_criterion, solid
+};
+
+OwnPlanes own_field_planes(const Simulation& sim) {
   const Solver& sv = sim.solver();
   const Decomposition& D = sv.decomposition();
   const Slab& sl = sv.slab();
-  // The slab widened by one plane at each cut: the vorticity's central differences at the slab's end planes read the
-  // cell beyond, whose centred w reads the face beyond that (the window's ghost plane). Each piece is then the whole
-  // grid's file's planes.
   const int depth = 1, lo = sl.cut_lo ? depth : 0;
   const Slab ws{sl.offset - lo, sl.n + depth * (int(sl.cut_lo) + int(sl.cut_hi)), sl.cut_lo, sl.cut_hi};
   const Grid wg = sim.whole_grid().slice_z(ws);
@@ -165,13 +174,23 @@ void FieldOutput::write_pieces(const Simulation& sim) {
   Field wp(wg.shape());
   for (int d = 0; d < 3; ++d) D.widen(sv.velocity()[d], sl, depth, wu[d]);
   D.widen(sv.pressure(), sl, depth, wp);
-  const FlowFields ff = flow_fields(wg, wu, wp, sim.plan().rho);
-  const std::vector<double> solid = sim.solid_mask();  // the slab's own cells
+  OwnPlanes o;
+  o.flow = flow_fields(wg, wu, wp, sim.plan().rho);
+  o.solid = sim.solid_mask();  // the slab's own cells
   const std::ptrdiff_t skip = std::ptrdiff_t(lo) * wg.shape().nx * wg.shape().ny;  // the window's plane below
-  std::vector<CellField> fields = ff.fields();
-  for (CellField& f : fields)
+  o.fields = o.flow.fields();
+  for (CellField& f : o.fields)
     for (CellArray& a : f.components) a.data += skip;
-  fields.push_back(CellField{"solid", "1", {CellArray{solid.data()}}});
+  o.fields.push_back(CellField{"solid", "1", {CellArray{o.solid.data()}}});
+  return o;
+}
+
+}  // namespace
+
+void FieldOutput::write_pieces(const Simulation& sim) {
+  const Solver& sv = sim.solver();
+  const Decomposition& D = sv.decomposition();
+  const OwnPlanes own = own_field_planes(sim);
   // Every rank writes its piece; a failure on any is every rank's (none goes on into the next collective call).
   FieldWriter::Record mine;
   std::string why;
@@ -181,7 +200,7 @@ void FieldOutput::write_pieces(const Simulation& sim) {
       writer_.emplace(dir_, "fields", axes, precision_, D.rank() == 0);  // rank 0 keeps the series
       axes_ = std::move(axes);
     }
-    mine = writer_->write_piece(sim.time(), sim.step(), fields, D.rank());
+    mine = writer_->write_piece(sim.time(), sim.step(), own.fields, D.rank());
   } catch (const std::exception& e) {
     why = e.what();
   }
@@ -201,11 +220,77 @@ void FieldOutput::write_pieces(const Simulation& sim) {
   });
 }
 
+void FieldOutput::write_streamed(const Simulation& sim) {
+  const Solver& sv = sim.solver();
+  const Decomposition& D = sv.decomposition();
+  const OwnPlanes own = own_field_planes(sim);
+  const Shape ls = sv.grid().shape();
+  const std::size_t plane = std::size_t(ls.nx) * std::size_t(ls.ny);
+  const std::vector<Slab>& slabs = sv.slabs();
+  const int P = D.size();
+  constexpr int tag = 110;
+  if (D.rank() != 0)  // each field's components in turn, rank 0 taking them in the same order
+    for (const CellField& f : own.fields)
+      for (const CellArray& a : f.components) D.send_to(0, a.data, plane * std::size_t(ls.nz), tag);
+  from_root(D, [&] {
+    const Grid& grid = sim.whole_grid();
+    // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
+    RectilinearAxes axes = rectilinear(grid);
+    if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
+      writer_.emplace(dir_, "fields", axes, precision_);
+      axes_ = std::move(axes);
+    }
+    // The messages in order: field f, rank r = 1 .. P - 1, component c.
+    std::size_t received = 0;
+    std::vector<std::vector<double>> held;  // the components of the slab now being written
+    int held_field = -1, held_rank = 0;
+    std::vector<CellField> fields = own.fields;
+    for (std::size_t fi = 0; fi < fields.size(); ++fi) {
+      CellField& f = fields[fi];
+      const int nc = int(f.components.size());
+      for (CellArray& a : f.components) a.data = nullptr;
+      f.plane = [&, fi, nc](std::size_t k, int c) -> const double* {
+        int r = 0;
+        while (std::size_t(slabs[std::size_t(r)].offset + slabs[std::size_t(r)].n) <= k) ++r;
+        const std::size_t local = k - std::size_t(slabs[std::size_t(r)].offset);
+        if (r == 0) return own.fields[fi].components[std::size_t(c)].data + local * plane;
+        if (held_field != int(fi) || held_rank != r) {  // the next slab: rank r's components of field fi
+          held.assign(std::size_t(nc), std::vector<double>(plane * std::size_t(slabs[std::size_t(r)].n)));
+          for (auto& v : held) {
+            D.receive_from(r, v.data(), v.size(), tag);
+            ++received;
+          }
+          held_field = int(fi);
+          held_rank = r;
+        }
+        return held[std::size_t(c)].data() + local * plane;
+      };
+    }
+    try {
+      writer_->write(sim.time(), sim.step(), fields);
+    } catch (...) {  // the slabs still on their way are taken in, so that the other ranks' sends complete
+      std::vector<double> sink;
+      for (int fi = 0, m = 0; fi < int(own.fields.size()); ++fi)
+        for (int r = 1; r < P; ++r)
+          for (std::size_t c = 0; c < own.fields[std::size_t(fi)].components.size(); ++c, ++m)
+            if (std::size_t(m) >= received) {
+              sink.resize(plane * std::size_t(slabs[std::size_t(r)].n));
+              D.receive_from(r, sink.data(), sink.size(), tag);
+            }
+      throw;
+    }
+    return std::string();
+  });
+}
+
 void FieldOutput::write(const Simulation& sim) {
   const Solver& sv = sim.solver();
   const Decomposition& D = sv.decomposition();
-  if (per_rank_ && D.distributed() && !sim.whole_grid().axis[2].periodic) {
-    write_pieces(sim);
+  if (D.distributed() && !sim.whole_grid().axis[2].periodic) {
+    if (per_rank_)
+      write_pieces(sim);
+    else
+      write_streamed(sim);
     return;
   }
   VectorField gathered_u;  // over ranks: the whole grid's fields on rank 0

@@ -100,19 +100,20 @@ class PerCycleOutput : public StepObserver {
   int per_cycle_;
 };
 
-// Cell-centred velocity, pressure (Pa), vorticity and Q criterion (HDF5 + XDMF) of the whole grid (a decomposed
-// run's gathered on rank 0, which writes them).
+// Cell-centred velocity, pressure (Pa), vorticity and Q criterion (HDF5 + XDMF) of the whole grid. Over MPI ranks
+// each rank computes its own planes' fields, and rank 0 writes the one file, taking each field's planes from the
+// ranks one slab at a time (no rank holds a whole field; a periodic z axis is gathered on rank 0 instead).
 class FieldOutput final : public PerCycleOutput {
  public:
   // per_rank: over MPI ranks each rank writes its own planes (a piece file, fields_STEP.pRANK.h5) and rank 0 the XDMF
-  // over the pieces, instead of rank 0 gathering the whole grid (a z axis that is not periodic; a periodic one is
-  // gathered).
+  // over the pieces, instead of one file (a z axis that is not periodic; a periodic one is gathered).
   FieldOutput(std::string directory, int per_cycle, FieldPrecision precision, bool per_rank = false)
       : PerCycleOutput(std::move(directory), per_cycle), precision_(precision), per_rank_(per_rank) {}
   void write(const Simulation& sim) override;
 
  private:
   void write_pieces(const Simulation& sim);
+  void write_streamed(const Simulation& sim);
   FieldPrecision precision_;
   bool per_rank_ = false;
   RectilinearAxes axes_;  // the writer's grid

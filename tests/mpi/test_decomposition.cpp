@@ -662,7 +662,8 @@ TEST(Decomposition, CfdRunOverRanksWritesTheOneProcessRunsFiles) {
 // field_files = "per-rank": each rank writes its own planes (fields_STEP.pRANK.h5) and rank 0 the XDMF over them (a
 // spatial collection). The pieces put together along z are the one-process run's field file, every field to 1e-9 of
 // its scale (the vorticity and Q criterion too: their central differences at a slab's end planes read the cell
-// beyond, which the piece takes from a window one plane wider); the series lists the pieces.
+// beyond, which the piece takes from a window one plane wider); the series lists the pieces. The one file that rank 0
+// writes from the ranks' planes (field_files = "whole") is the pieces put together, bit for bit.
 TEST(Decomposition, PerRankFieldFilesPutTogetherAreTheWholeFile) {
   namespace fs = std::filesystem;
   const std::string keys = "fields_per_cycle = 40\nsurfaces_per_cycle = 0\nfield_precision = \"float64\"\n";
@@ -680,9 +681,17 @@ TEST(Decomposition, PerRankFieldFilesPutTogetherAreTheWholeFile) {
   o.decomposition = world();
   MPI_Barrier(MPI_COMM_WORLD);
   run_cfd(piece_case, piece_case.kinematics, BodyMotion{}, o);
+  // The same run with one file per output: rank 0 writes it, taking each field's planes from the ranks slab by slab.
+  const std::string streamed = shared_path("streamed_fields");
+  if (world()->rank() == 0) fs::remove_all(streamed);
+  MPI_Barrier(MPI_COMM_WORLD);
+  o.directory = streamed;
+  run_cfd(whole_case, whole_case.kinematics, BodyMotion{}, o);
   if (world()->rank() != 0) return;
   const std::string step = "000002";
   EXPECT_FALSE(fs::exists(ranks + "/fields/fields_" + step + ".h5"));
+  EXPECT_EQ(read_axes(streamed + "/fields/fields_" + step + ".h5").z,
+            read_axes(one + "/fields/fields_" + step + ".h5").z);
   const RectilinearAxes axes = read_axes(one + "/fields/fields_" + step + ".h5");
   std::vector<double> z{axes.z.front()};
   std::vector<std::string> files;
@@ -704,6 +713,10 @@ TEST(Decomposition, PerRankFieldFilesPutTogetherAreTheWholeFile) {
       joined.insert(joined.end(), p.values.begin(), p.values.end());  // [z][y][x]: the pieces follow along z
     }
     ASSERT_EQ(joined.size(), w.values.size()) << name;
+    // The streamed file: the pieces' values bit for bit (the same run's fields, computed the same way on each rank).
+    const StoredField st = read_field(streamed + "/fields/fields_" + step + ".h5", name);
+    EXPECT_EQ(st.components, w.components) << name;
+    EXPECT_TRUE(st.values == joined) << name << ": the streamed file differs from the pieces put together";
     double diff = 0, big = 0;
     for (std::size_t n = 0; n < joined.size(); ++n) {
       diff = std::max(diff, std::abs(joined[n] - w.values[n]));
