@@ -387,7 +387,9 @@ FieldWriter::FieldWriter(std::string directory, std::string name, RectilinearAxe
     : directory_(std::move(directory)), name_(std::move(name)), axes_(std::move(axes)), precision_(precision) {
   check_name(name_, "field output");
   axes_.check();
-  fs::create_directories(directory_);
+  std::error_code ec;
+  fs::create_directories(directory_, ec);
+  if (ec) throw OutputError(output_failure("create directory", directory_, ec.value()));
   // Whole outputs (<name>_<step>.h5) and pieces (<name>_<step>.p<piece>.h5, a run over MPI ranks); a step written
   // both ways (restarts with other settings) keeps its whole file. A writer of one piece of a run over ranks whose
   // series another rank keeps reads nothing (read_series false).

@@ -122,7 +122,11 @@ std::vector<std::pair<long, std::string>> checkpoints_in(const std::string& dir)
 void Checkpointer::write(const Simulation& sim) {
   const std::string path = fmt::format("{}/checkpoint_{:09d}.h5", dir_, sim.step());
   const Decomposition& D = sim.solver().decomposition();
-  on_root(D, [&] { fs::create_directories(dir_); });
+  on_root(D, [&] {
+    std::error_code ec;
+    fs::create_directories(dir_, ec);
+    if (ec) throw OutputError(output_failure("create directory", dir_, ec.value()));
+  });
   // forces.csv first: a kill between the two leaves rows beyond the newest checkpoint (dropped on restart), never
   // a checkpoint beyond the rows.
   if (csv_) csv_->flush();
@@ -233,13 +237,6 @@ void FieldOutput::write_streamed(const Simulation& sim) {
     for (const CellField& f : own.fields)
       for (const CellArray& a : f.components) D.send_to(0, a.data, plane * std::size_t(ls.nz), tag);
   from_root(D, [&] {
-    const Grid& grid = sim.whole_grid();
-    // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
-    RectilinearAxes axes = rectilinear(grid);
-    if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
-      writer_.emplace(dir_, "fields", axes, precision_);
-      axes_ = std::move(axes);
-    }
     // The messages in order: field f, rank r = 1 .. P - 1, component c.
     std::size_t received = 0;
     std::vector<std::vector<double>> held;  // the components of the slab now being written
@@ -267,6 +264,12 @@ void FieldOutput::write_streamed(const Simulation& sim) {
       };
     }
     try {
+      // A new grid (a free flight's re-planned fine box) starts a new writer: the series (one grid per file) goes on.
+      RectilinearAxes axes = rectilinear(sim.whole_grid());
+      if (!writer_ || axes.x != axes_.x || axes.y != axes_.y || axes.z != axes_.z) {
+        writer_.emplace(dir_, "fields", axes, precision_);
+        axes_ = std::move(axes);
+      }
       writer_->write(sim.time(), sim.step(), fields);
     } catch (...) {  // the slabs still on their way are taken in, so that the other ranks' sends complete
       std::vector<double> sink;

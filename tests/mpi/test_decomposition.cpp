@@ -573,6 +573,22 @@ TEST(Decomposition, FlappingInsectLoadsMatchTheSingleRankOnes) {
                 part.solver().slab().n);
 }
 
+// A field output that rank 0 cannot write (its directory under a file) fails on every rank with OutputError, and the
+// ranks go on together: rank 0 takes in the other ranks' planes still on their way (one file per output, and per
+// rank as well).
+TEST(Decomposition, FieldOutputThatCannotBeWrittenFailsOnEveryRank) {
+  const Case c = moth_case();
+  const CfdPlan plan = plan_cfd(c, c.kinematics, BodyMotion{});
+  SimulationOptions split;
+  split.decomposition = world();
+  Simulation part(c, c.kinematics, BodyMotion{}, plan, split);
+  for (const bool per_rank : {false, true}) {
+    FieldOutput out("/dev/null/cannot/fields", 1, FieldPrecision::float64, per_rank);
+    EXPECT_THROW(out.write(part), flapstab::OutputError) << "per rank " << per_rank << ", rank " << world()->rank();
+    EXPECT_EQ(world()->sum(1.0), double(world()->size()));  // every rank reached here: nothing left hanging
+  }
+}
+
 // flapstab cfd's run over the ranks (run_cfd with a decomposition): the files in its directory are those of the
 // same run in one process, to round-off: forces.csv, the checkpoint, the field file (with the solid mask), the
 // surfaces, run.json. The run over the ranks stops after 6 steps and is restarted from its checkpoint for 4 more; the
