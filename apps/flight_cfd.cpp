@@ -23,7 +23,6 @@
 #include "cfd/navier_stokes/cfd_model.hpp"
 #include "cfd/navier_stokes/decomposition.hpp"
 #include "cfd/navier_stokes/io_hdf5.hpp"
-#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "cfd/navier_stokes/plan.hpp"
 #include "cfd/navier_stokes/run.hpp"
@@ -340,9 +339,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
           }
         }
         // Over ranks each reads its planes only.
-        const ns::Grid whole = ns::plan_grid(ns::shifted_plan(plan, shift));
-        const ns::SimulationState s = ranks ? ns::read_state(ck, whole.shape(), ns::Multigrid::rank_slab(whole, D))
-                                            : ns::read_state(ck, whole.shape());
+        const ns::SimulationState s = ns::read_state_over_ranks(ck, ns::plan_grid(ns::shifted_plan(plan, shift)), D);
         BodyStateVector x;
         Wrench held;
         for (int i = 0; i < 12; ++i) x(i) = v.at(fmt::format("x{}", i));

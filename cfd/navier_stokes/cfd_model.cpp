@@ -14,7 +14,6 @@
 #include <nlohmann/json.hpp>
 
 #include "cfd/fpm/observer.hpp"
-#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/run.hpp"
 #include "cfd/navier_stokes/solver_io.hpp"
 #include "core/atomic_write.hpp"
@@ -296,11 +295,9 @@ struct Ranks {
     if (answer.empty()) return std::nullopt;
     return answer.substr(1);
   }
-  // A kept (whole-grid) state of grid `whole` read back: over ranks only this rank's planes (ghost planes included)
-  // are read, so no rank holds the whole grid; the flows restore either.
+  // A kept (whole-grid) state of grid `whole` read back: over ranks only this rank's planes.
   SimulationState read(const CheckpointReader& ck, const Grid& whole) const {
-    return d->distributed() ? read_state(ck, whole.shape(), Multigrid::rank_slab(whole, *d))
-                            : read_state(ck, whole.shape());
+    return read_state_over_ranks(ck, whole, *d);
   }
   SimulationOptions options(SimulationOptions o = {}) const {
     if (d->distributed()) o.decomposition = d;

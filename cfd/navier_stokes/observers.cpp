@@ -237,8 +237,11 @@ void FieldOutput::write_streamed(const Simulation& sim) {
     for (const CellField& f : own.fields)
       for (const CellArray& a : f.components) D.send_to(0, a.data, plane * std::size_t(ls.nz), tag);
   from_root(D, [&] {
-    // The messages in order: field f, rank r = 1 .. P - 1, component c.
-    std::size_t received = 0;
+    RootInbox inbox(D);  // field f's components of rank r = 1 .. P - 1 in turn, the fields in turn
+    for (const CellField& f : own.fields)
+      for (int r = 1; r < P; ++r)
+        for (std::size_t c = 0; c < f.components.size(); ++c)
+          inbox.expect(r, plane * std::size_t(slabs[std::size_t(r)].n), tag);
     std::vector<std::vector<double>> held;  // the components of the slab now being written
     int held_field = -1, held_rank = 0;
     std::vector<CellField> fields = own.fields;
@@ -252,11 +255,8 @@ void FieldOutput::write_streamed(const Simulation& sim) {
         const std::size_t local = k - std::size_t(slabs[std::size_t(r)].offset);
         if (r == 0) return own.fields[fi].components[std::size_t(c)].data + local * plane;
         if (held_field != int(fi) || held_rank != r) {  // the next slab: rank r's components of field fi
-          held.assign(std::size_t(nc), std::vector<double>(plane * std::size_t(slabs[std::size_t(r)].n)));
-          for (auto& v : held) {
-            D.receive_from(r, v.data(), v.size(), tag);
-            ++received;
-          }
+          held.resize(std::size_t(nc));
+          for (auto& v : held) inbox.next(v);
           held_field = int(fi);
           held_rank = r;
         }
@@ -272,14 +272,7 @@ void FieldOutput::write_streamed(const Simulation& sim) {
       }
       writer_->write(sim.time(), sim.step(), fields);
     } catch (...) {  // the slabs still on their way are taken in, so that the other ranks' sends complete
-      std::vector<double> sink;
-      for (int fi = 0, m = 0; fi < int(own.fields.size()); ++fi)
-        for (int r = 1; r < P; ++r)
-          for (std::size_t c = 0; c < own.fields[std::size_t(fi)].components.size(); ++c, ++m)
-            if (std::size_t(m) >= received) {
-              sink.resize(plane * std::size_t(slabs[std::size_t(r)].n));
-              D.receive_from(r, sink.data(), sink.size(), tag);
-            }
+      inbox.drain();
       throw;
     }
     return std::string();

@@ -243,8 +243,7 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
   Simulation sim(c, kin, motion, plan, so);
   if (ck) {
     // Over ranks every rank reads its slab's planes only (the whole file streamed through for its checksums)
-    sim.restore(D.distributed() ? read_state(*ck, sim.whole_grid().shape(), sim.solver().slab())
-                                : read_state(*ck, sim.whole_grid().shape()));
+    sim.restore(read_state_over_ranks(*ck, sim.whole_grid(), D));
     res.start_step = sim.step();
   }
   const long start_step = sim.step();

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <fmt/format.h>
+#include "cfd/navier_stokes/multigrid.hpp"
 #include "cfd/navier_stokes/observers.hpp"
 #include "core/errors.hpp"
 
@@ -60,6 +61,23 @@ SimulationState transfer_state_over_ranks(const SimulationState& whole, const Gr
   return transfer_state(whole, from, to.grid());
 }
 
+void RootInbox::next(std::vector<double>& out) {
+  if (taken_ >= queue_.size()) throw std::logic_error("RootInbox: no message expected");
+  const Message& m = queue_[taken_++];
+  out.resize(m.count);
+  D_.receive_from(m.from, out.data(), m.count, m.tag);
+}
+
+void RootInbox::drain() {
+  std::vector<double> sink;
+  while (taken_ < queue_.size()) next(sink);
+}
+
+SimulationState read_state_over_ranks(const CheckpointReader& ck, const Grid& whole, const Decomposition& ranks) {
+  return ranks.distributed() ? read_state(ck, whole.shape(), Multigrid::rank_slab(whole, ranks))
+                             : read_state(ck, whole.shape());
+}
+
 void write_state_over_ranks(const std::string& path, const Solver& s, long step, double dt_last,
                             std::map<std::string, double> values, std::map<std::string, std::string> text) {
   const Decomposition& D = s.decomposition();
@@ -75,38 +93,31 @@ void write_state_over_ranks(const std::string& path, const Solver& s, long step,
   // Rank r's planes of the whole array: the first rank's from its ghost plane 0, the last rank's up to its ghost
   // plane n + 1 (as gather_field takes them).
   auto first_plane = [&](int r) { return r == 0 ? 0 : 1; };
-  auto planes = [&](int r) { return slabs[std::size_t(r)].n + (r + 1 == P ? 1 : 0) - first_plane(r) + 1; };
+  auto count = [&](int r) {
+    return std::size_t(slabs[std::size_t(r)].n + (r + 1 == P ? 1 : 0) - first_plane(r) + 1) * plane;
+  };
   constexpr int tag = 90;
   if (D.rank() != 0)
     for (int f = 0; f < 7; ++f)
-      D.send_to(0, fields[std::size_t(f)]->data() + std::size_t(first_plane(D.rank())) * plane,
-                std::size_t(planes(D.rank())) * plane, tag + f);
+      D.send_to(0, fields[std::size_t(f)]->data() + std::size_t(first_plane(D.rank())) * plane, count(D.rank()), tag);
   from_root(D, [&] {
-    // Rank 0 takes the messages in order (array f, rank r): f (P - 1) + r - 1 of 7 (P - 1).
-    const int messages = 7 * (P - 1);
-    int received = 0;
+    RootInbox inbox(D);  // array f's slabs in rank order, the arrays in turn
+    for (int f = 0; f < 7; ++f)
+      for (int r = 1; r < P; ++r) inbox.expect(r, count(r), tag);
     std::vector<double> buffer;
     std::vector<CheckpointRowArray> arrays;
     const std::vector<std::size_t> shape = {std::size_t(whole.nz + 2), std::size_t(whole.ny + 2),
                                             std::size_t(whole.nx + 2)};
     for (int f = 0; f < 7; ++f)
       arrays.push_back({names[f], shape, [&, f, r = 0]() mutable -> std::span<const double> {
-                          const int from = r++;
-                          const std::size_t count = std::size_t(planes(from)) * plane;
-                          if (from == 0) return {fields[std::size_t(f)]->data(), count};
-                          buffer.resize(count);
-                          D.receive_from(from, buffer.data(), count, tag + f);
-                          ++received;
+                          if (r++ == 0) return {fields[std::size_t(f)]->data(), count(0)};
+                          inbox.next(buffer);
                           return buffer;
                         }});
     try {
       write_checkpoint(path, state_header(s.time(), step, dt_last, s.has_guess(), values, text), arrays);
-    } catch (...) {  // the other ranks' slabs still on their way are taken in, so that their sends complete
-      for (; received < messages; ++received) {
-        const int f = received / (P - 1), from = received % (P - 1) + 1;
-        buffer.resize(std::size_t(planes(from)) * plane);
-        D.receive_from(from, buffer.data(), buffer.size(), tag + f);
-      }
+    } catch (...) {
+      inbox.drain();
       throw;
     }
     return std::string();
@@ -176,7 +187,7 @@ SimulationState read_solver_checkpoint(const std::string& path, Solver& s) {
                                                    std::size_t(whole.nx + 2)})
       throw InputError(path, name, "array of another grid's shape",
                        fmt::format("{} x {} x {} cells (with ghosts)", whole.nx + 2, whole.ny + 2, whole.nz + 2));
-  const SimulationState w = s.decomposition().distributed() ? read_state(ck, whole, s.slab()) : read_state(ck, whole);
+  const SimulationState w = read_state_over_ranks(ck, s.whole_grid(), s.decomposition());
   s.restore(w.time, w.u, w.p, w.phi, w.guess);
   SimulationState r;
   r.time = w.time;

@@ -23,6 +23,34 @@ SimulationState gather_state(const Solver& s, long step, double dt_last);
 // grid, and no rank holds that. On one rank, transfer_state. Collective.
 SimulationState transfer_state_over_ranks(const SimulationState& whole, const Grid& from, const Solver& to);
 
+// A checkpoint's state of the whole grid `whole` as this rank holds it: over several ranks only its slab's planes
+// (ghost planes included) are read, the whole file streamed through for its checksums, so no rank holds the whole
+// grid; on one rank the whole state. Simulation::restore takes either.
+SimulationState read_state_over_ranks(const CheckpointReader& ck, const Grid& whole, const Decomposition& ranks);
+
+// Rank 0's side of slabs the other ranks send it (Decomposition::send_to) in an order both sides know: a writer takes
+// them one by one as it goes, and when it fails the rest are taken in and dropped (drain), so that every send
+// completes and no rank is left waiting.
+class RootInbox {
+ public:
+  explicit RootInbox(const Decomposition& D) : D_(D) {}
+  void expect(int from, std::size_t count, int tag) { queue_.push_back({from, count, tag}); }
+  // The next message, into `out` (resized to its count).
+  void next(std::vector<double>& out);
+  // Receives and drops every message not taken yet.
+  void drain();
+
+ private:
+  struct Message {
+    int from;
+    std::size_t count;
+    int tag;
+  };
+  const Decomposition& D_;
+  std::vector<Message> queue_;
+  std::size_t taken_ = 0;
+};
+
 // The planes of this rank's slab (ghost planes included) of a whole-grid state, or the state itself when its fields
 // are not the whole grid's or there is one rank.
 SimulationState own_planes(const SimulationState& whole, const Solver& s);
