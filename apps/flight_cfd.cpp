@@ -622,7 +622,6 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                  {"steps", r.steps},
                  {"resumed", resumed},
                  {"simulation_time_s", r.wall_time_s},
-                 {"deviation_per_wingbeat_nd", growth.deviation},
                  {"reference", !ref_flight ? "the tethered hover (body at rest at O)"
                                : closed_reference
                                    ? "the unperturbed coupled flight from the same hover state under the same "
@@ -630,13 +629,8 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
                                    : "the unperturbed coupled flight from the same hover state "
                                      "(reference_checkpoint.*)"},
                  {"deviation_note", "largest non-dimensional deviation from the reference within each wingbeat "
-                                    "(velocities / U, rates c / U, angles rad) over the moving states"},
-                 {"growth_per_wingbeat", std::isfinite(growth.per_wingbeat) ? json(growth.per_wingbeat) : json(nullptr)},
-                 {"growth_fit_wingbeats", {growth.first, growth.last}},
-                 {"mean_deviation_per_wingbeat_nd", growth.mean_deviation},
-                 {"mean_deviation_note", "largest non-dimensional |wingbeat mean of the deviation| over the moving states"},
-                 {"mean_growth_per_wingbeat",
-                  std::isfinite(growth.mean_per_wingbeat) ? json(growth.mean_per_wingbeat) : json(nullptr)}};
+                                    "(velocities / U, rates c / U, angles rad) over the moving states"}};
+  put_growth(j["result"], growth);
   j["wall_time_s"] = seconds_since(t0);
   LinePlot plot;
   plot.title = c.insect.name + ": free flight coupled to the Navier-Stokes solver (" + dof_set_name(dofs) + ")";
@@ -678,13 +672,7 @@ int run_fly_cfd(const FlightCommandOptions& o, const Case& c, const std::string&
   });
   if (talk) {
     if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
-    fmt::print("  deviation from the {}: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per "
-               "wingbeat (fit over wingbeats {}-{})\n",
-               ref_flight ? "unperturbed flight" : "tethered hover", growth.deviation.empty() ? 0.0 : growth.deviation.front(),
-               growth.deviation.empty() ? 0.0 : growth.deviation.back(), growth.per_wingbeat, growth.first, growth.last);
-    if (!growth.mean_deviation.empty())
-      fmt::print("  wingbeat means of the deviation: {:.3e} -> {:.3e}; growth {:+.4f} per wingbeat (same fit)\n",
-                 growth.mean_deviation.front(), growth.mean_deviation.back(), growth.mean_per_wingbeat);
+    fmt::print("{}", growth_lines(growth, ref_flight ? "unperturbed flight" : "tethered hover"));
     fmt::print("wrote {}/trajectory.csv, steps.csv, run.json{} in {:.1f} s ({} is kept: a larger --wingbeats "
                "continues from it)\n",
                dir, svg ? ", response.svg" : "", seconds_since(t0), ck_path);

@@ -211,15 +211,9 @@ int fly(const FlightCommandOptions& o, const std::shared_ptr<const ns::Decomposi
                  {"rejected_steps", r.rejected},
                  {"rhs_evaluations", r.rhs_evaluations},
                  {"simulation_time_s", r.wall_time_s},
-                 {"deviation_per_wingbeat_nd", growth.deviation},
                  {"deviation_note", "largest non-dimensional deviation from the periodic orbit within each wingbeat "
-                                    "(velocities / U, rates c / U, angles rad) over the moving states"},
-                 {"growth_per_wingbeat", std::isfinite(growth.per_wingbeat) ? json(growth.per_wingbeat) : json(nullptr)},
-                 {"growth_fit_wingbeats", {growth.first, growth.last}},
-                 {"mean_deviation_per_wingbeat_nd", growth.mean_deviation},
-                 {"mean_deviation_note", "largest non-dimensional |wingbeat mean of the deviation| over the moving states"},
-                 {"mean_growth_per_wingbeat",
-                  std::isfinite(growth.mean_per_wingbeat) ? json(growth.mean_per_wingbeat) : json(nullptr)}};
+                                    "(velocities / U, rates c / U, angles rad) over the moving states"}};
+  put_growth(j["result"], growth);
   j["wall_time_s"] = seconds_since(t0);
   LinePlot plot;
   plot.title = c.insect.name + ": free-flight response (" + dof_set_name(dofs) + ")";
@@ -252,13 +246,7 @@ int fly(const FlightCommandOptions& o, const std::shared_ptr<const ns::Decomposi
   write_files_atomic(out);  // the set as one: all or none
   if (!o.quiet) {
     if (!r.completed) fmt::print("  stopped: {}\n", r.stop_reason);
-    fmt::print("  deviation from the orbit: {:.3e} (first wingbeat) -> {:.3e} (last); growth {:+.4f} per wingbeat "
-               "(fit over wingbeats {}-{})\n",
-               growth.deviation.empty() ? 0.0 : growth.deviation.front(),
-               growth.deviation.empty() ? 0.0 : growth.deviation.back(), growth.per_wingbeat, growth.first, growth.last);
-    if (!growth.mean_deviation.empty())
-      fmt::print("  wingbeat means of the deviation: {:.3e} -> {:.3e}; growth {:+.4f} per wingbeat (same fit)\n",
-                 growth.mean_deviation.front(), growth.mean_deviation.back(), growth.mean_per_wingbeat);
+    fmt::print("{}", growth_lines(growth, "orbit"));
     fmt::print("  {} steps, {} load evaluations, simulation {:.3f} s\n", r.steps, r.rhs_evaluations, r.wall_time_s);
     fmt::print("wrote {}/trajectory.csv, run.json{} in {:.2f} s\n", dir, svg ? ", response.svg" : "", seconds_since(t0));
   }

@@ -1,4 +1,4 @@
-// JSON forms of trim and derivative results.
+// JSON forms of trim and derivative results, and a flight's growth per wingbeat (with its terminal lines).
 #include "apps/results_json.hpp"
 #include <algorithm>
 #include <cmath>
@@ -205,6 +205,40 @@ json derivatives_json(const DerivativeResult& d) {
           {"rate_step_rad_s", d.rate_step},
           {"model_runs", d.model_runs},
           {"source", d.table.source}};
+}
+
+namespace {
+
+std::string growth_not_fitted(const GrowthEstimate& g) {
+  return fmt::format("not fitted: the fit over wingbeats {}-{} (the second half of the flight) needs a nonzero "
+                     "deviation in at least two of them; fly more wingbeats (--wingbeats or [flight] wingbeats)",
+                     std::max(g.first, 0), g.last);
+}
+
+nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+}  // namespace
+
+void put_growth(nlohmann::json& result, const GrowthEstimate& g) {
+  result["deviation_per_wingbeat_nd"] = g.deviation;
+  result["growth_per_wingbeat"] = finite_or_null(g.per_wingbeat);
+  result["growth_fit_wingbeats"] = {g.first, g.last};
+  result["mean_deviation_per_wingbeat_nd"] = g.mean_deviation;
+  result["mean_deviation_note"] = "largest non-dimensional |wingbeat mean of the deviation| over the moving states";
+  result["mean_growth_per_wingbeat"] = finite_or_null(g.mean_per_wingbeat);
+  if (!std::isfinite(g.per_wingbeat)) result["growth_note"] = growth_not_fitted(g);
+}
+
+std::string growth_lines(const GrowthEstimate& g, const std::string& reference) {
+  std::string s = fmt::format("  deviation from the {}: {:.3e} (first wingbeat) -> {:.3e} (last)", reference,
+                              g.deviation.empty() ? 0.0 : g.deviation.front(),
+                              g.deviation.empty() ? 0.0 : g.deviation.back());
+  if (!std::isfinite(g.per_wingbeat)) return s + "\n  growth per wingbeat " + growth_not_fitted(g) + "\n";
+  s += fmt::format("; growth {:+.4f} per wingbeat (fit over wingbeats {}-{})\n", g.per_wingbeat, g.first, g.last);
+  if (!g.mean_deviation.empty() && std::isfinite(g.mean_per_wingbeat))
+    s += fmt::format("  wingbeat means of the deviation: {:.3e} -> {:.3e}; growth {:+.4f} per wingbeat (same fit)\n",
+                     g.mean_deviation.front(), g.mean_deviation.back(), g.mean_per_wingbeat);
+  return s;
 }
 
 }  // namespace flapstab

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 #include "cfd/derivatives.hpp"
+#include "flight/free_flight.hpp"
 #include "trim/trim.hpp"
 
 namespace flapstab {
@@ -33,6 +34,13 @@ nlohmann::json matrix_json(const Eigen::MatrixXd& m);
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
+// A flight's deviation and growth per wingbeat as run.json "result" keys: deviation_per_wingbeat_nd,
+// growth_per_wingbeat, growth_fit_wingbeats, mean_deviation_per_wingbeat_nd, mean_growth_per_wingbeat. Where the fit
+// had fewer than two wingbeats with a deviation, the growths are null and growth_note says why.
+void put_growth(nlohmann::json& result, const GrowthEstimate& g);
+// The same for the terminal, two lines: the deviation from `reference` in the first and last wingbeats, and the
+// growth per wingbeat or why it was not fitted.
+std::string growth_lines(const GrowthEstimate& g, const std::string& reference);
 // FNV-1a 64-bit hash of a file's bytes, as 16 hex digits.
 std::string file_hash(const std::string& path);
 

@@ -117,6 +117,22 @@ TEST(FlyCli, StateFeedbackEqualsThePitchControllerAndModePerturbation) {
   const auto mu = j.at("flight").at("mode_multiplier");
   EXPECT_GT(std::hypot(mu[0].get<double>(), mu[1].get<double>()), 1.0);  // the lateral divergence
   EXPECT_NE(j.at("flight").at("initial_state").at("phi_rad").get<double>(), 0.0);
+  // The growth is a fit over the second half of the flight and needs two wingbeats there: the 4-wingbeat flight has
+  // it (wingbeats 2-3), the 2-wingbeat one says why it has none (null in run.json, a note, and the terminal line).
+  std::ifstream ja(a + "/run.json");
+  const auto four = nlohmann::json::parse(ja).at("result");
+  EXPECT_TRUE(four.at("growth_per_wingbeat").is_number());
+  EXPECT_EQ(four.at("growth_fit_wingbeats"), nlohmann::json({2, 3}));
+  EXPECT_FALSE(four.contains("growth_note"));
+  const auto two = j.at("result");
+  EXPECT_TRUE(two.at("growth_per_wingbeat").is_null());
+  EXPECT_TRUE(two.at("mean_growth_per_wingbeat").is_null());
+  EXPECT_NE(two.at("growth_note").get<std::string>().find("at least two"), std::string::npos);
+  const CliResult loud = flapstab("fly " + testing::write_temp("fly_mode.toml", m) + " -o " + fresh_dir("fly_mode2") +
+                                  " --wingbeats 2");
+  ASSERT_EQ(loud.status, 0) << loud.err;
+  EXPECT_NE(loud.out.find("growth per wingbeat not fitted"), std::string::npos) << loud.out;
+  EXPECT_EQ(loud.out.find("+nan"), std::string::npos) << loud.out;
 }
 
 // Bad input is refused before any work: exit status 2, the key named, no output directory.
