@@ -1,5 +1,6 @@
 // The flapstab command: parses arguments and dispatches to the subcommands in apps/commands.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <new>
 #include <fmt/format.h>
 
@@ -12,6 +13,15 @@
 #include "core/errors.hpp"
 
 namespace {
+
+// CLI11's Range lets "nan" through (every comparison with it is false): a real-valued option also checks this.
+const CLI::Validator finite_number(
+    [](std::string& text) {
+      double v = 0;
+      const bool ok = CLI::detail::lexical_cast(text, v) && std::isfinite(v);
+      return ok ? std::string() : "Value " + text + " is not a finite number";
+    },
+    "FINITE");
 
 void add_common(CLI::App* sub, flapstab::CommandOptions& o) {
   sub->add_option("case", o.case_path, "case file (TOML); see docs/case-file.md")->required()->check(CLI::ExistingFile);
@@ -113,7 +123,7 @@ int main(int argc, char** argv) {
   fly->add_option("--dof", fo.dof, "degrees of freedom: 6dof | longitudinal | pitch | translation (overrides [flight] dof)")
       ->check(CLI::IsMember({"6dof", "longitudinal", "pitch", "translation"}));
   fly->add_option("--wingbeats", fo.wingbeats, "duration in wingbeats (overrides [flight] wingbeats)")
-      ->check(CLI::Range(1e-3, 1e5));
+      ->check(finite_number)->check(CLI::Range(1e-3, 1e5));
   fly->add_flag("-q,--quiet", fo.quiet, "print nothing on success");
   CLI::App* cmap = app.add_subcommand(
       "control-map", "delay-exact stability map of the [control.pitch] feedback over (gain, latency): spectral abscissa "
@@ -137,9 +147,9 @@ int main(int argc, char** argv) {
   h2d->add_option("-o,--output", vo.output_dir, "output directory")->capture_default_str();
   h2d->add_option("--cells-per-chord", vo.cells_per_chord, "grid: cells per chord in the fine box (16 coarse, 32 "
                                                            "default, 48-64 converged)")
-      ->check(CLI::Range(4.0, 512.0))->capture_default_str();
+      ->check(finite_number)->check(CLI::Range(4.0, 512.0))->capture_default_str();
   h2d->add_option("--cycles", vo.cycles, "periods to run (4 for the comparison with cycles 2-4)")
-      ->check(CLI::Range(0.01, 100.0))->capture_default_str();
+      ->check(finite_number)->check(CLI::Range(0.01, 100.0))->capture_default_str();
   h2d->add_option("--span-cells", vo.span_cells, "depth of the periodic slab in cells (the flow stays 2-D; "
                                                    "more cells cost proportionally more)")
       ->check(CLI::Range(2, 64))->capture_default_str();

@@ -171,6 +171,13 @@ TEST(FlyCli, BadInputNamesFileAndKey) {
                  "flight.cfd_residual");
   expect_refused(replaced(h, "type = \"pitch\"", "type = \"none\""), "control-map", "control.type");
   expect_refused(replaced(h, "gain_max = 2.0", "gain_max = -1.0"), "control-map", "control.map.gain_max");
+  // A number option that is not a finite number (CLI11's range check alone let "nan" through: the case's wingbeats
+  // were flown instead).
+  const std::string dir = fresh_dir("bad_wingbeats");
+  const CliResult r = flapstab("fly " + testing::write_temp("fly_ok.toml", h) + " -o " + dir + " --wingbeats nan -q");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--wingbeats: Value nan is not a finite number"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir));
 }
 
 // A small map (8 x 8, one check point each side): the JSON's keys, the boundary and the agreement of the
