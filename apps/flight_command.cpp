@@ -2,6 +2,7 @@
 #include "apps/flight_command.hpp"
 #include "apps/over_ranks.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -276,8 +277,10 @@ struct CheckPoint {
   double simulated_growth = 0;     // per wingbeat
   bool completed = true;
   bool inside = false;             // chosen inside the averaged model's stable region
+  // Whether the flight gave a growth or diverged ([control.map] check_wingbeats long enough to fit one).
+  bool simulated() const { return !std::isnan(simulated_growth); }
   bool agree() const {
-    return (lti_abscissa < 0) == (simulated_growth < 0) && (floquet_radius < 1) == (simulated_growth < 0);
+    return simulated() && (lti_abscissa < 0) == (simulated_growth < 0) && (floquet_radius < 1) == (simulated_growth < 0);
   }
 };
 
@@ -303,6 +306,12 @@ CheckPoint check_point(const HoverModel& h, const FlightDynamics& dyn, const Pit
                            ? wingbeat_growth(r, ref, h.derivatives.table.reference, h.cyclic.period, {3, 5, 7, 10}).per_wingbeat
                            : INFINITY;
   return p;
+}
+
+// A check point's simulated growth: a number, "diverged" (the flight left the attitude envelope) or "not fitted"
+// ([control.map] check_wingbeats leaves fewer than two wingbeats with a deviation to fit).
+json simulated_growth_json(double g) {
+  return std::isfinite(g) ? json(g) : std::isinf(g) ? json("diverged") : json("not fitted");
 }
 
 json latency_json(double tau, double T) {
@@ -508,8 +517,9 @@ int run_control_map(const FlightCommandOptions& o) {
     cj.push_back({{"gain", p.gain}, {"latency", latency_json(p.latency, T)}, {"chosen", p.inside ? "inside" : "outside"},
                   {"lti_spectral_abscissa_per_s", p.lti_abscissa}, {"lti_growth_per_wingbeat", p.lti_abscissa * T},
                   {"floquet_spectral_radius", p.floquet_radius}, {"floquet_growth_per_wingbeat", std::log(p.floquet_radius)},
-                  {"simulated_growth_per_wingbeat", std::isfinite(p.simulated_growth) ? json(p.simulated_growth) : json("diverged")},
-                  {"simulation_completed", p.completed}, {"all_three_agree", p.agree()}});
+                  {"simulated_growth_per_wingbeat", simulated_growth_json(p.simulated_growth)},
+                  {"simulation_completed", p.completed},
+                  {"all_three_agree", p.simulated() ? json(p.agree()) : json(nullptr)}});
   }
   j["check_points"] = cj;
   j["check_points_note"] = fmt::format("nonlinear free flight (longitudinal degrees of freedom) from the periodic orbit "
@@ -543,7 +553,7 @@ int run_control_map(const FlightCommandOptions& o) {
       sj.push_back({{"dz_m", p.dz}, {"dz_over_chord", p.dz / cbar}, {"com_below_neutral_axis_m", p.com_below_axis_m},
                     {"lti_growth_per_wingbeat", p.lti_growth}, {"lti_mode_oscillatory", p.lti_oscillatory},
                     {"floquet_growth_per_wingbeat", p.floquet_growth},
-                    {"simulated_growth_per_wingbeat", std::isfinite(p.simulated_growth) ? json(p.simulated_growth) : json("diverged")}});
+                    {"simulated_growth_per_wingbeat", simulated_growth_json(p.simulated_growth)}});
     j["com_sweep"] = {{"note", "centre of mass moved by dz (+down) relative to the wing hinges, re-trimmed, open loop; "
                                "largest longitudinal growth per wingbeat"},
                       {"points", sj}};
@@ -583,6 +593,7 @@ int run_control_map(const FlightCommandOptions& o) {
   mp.dots = {edges};
   Series sp{"simulated: decays", {}, {}}, su{"simulated: grows", {}, {}};
   for (const auto& p : checks) {
+    if (!p.simulated()) continue;  // too short a flight for a growth: neither
     Series& s = p.simulated_growth < 0 ? sp : su;
     s.x.push_back(p.gain);
     s.y.push_back(p.latency / T);
@@ -632,18 +643,30 @@ int run_control_map(const FlightCommandOptions& o) {
                  "window that does not reach latency 0 when the gain is below the zero-latency range)\n",
                  widest_latency * 1e3, widest_latency / T, widest_gain);
     for (const auto& p : checks)
-      fmt::print("  check {:7} gain {:.4g}, latency {:6.2f} ms: LTI {:+.4f}/wb, periodic {:+.4f}/wb, simulated {:+.4f}/wb{}\n",
+      fmt::print("  check {:7} gain {:.4g}, latency {:6.2f} ms: LTI {:+.4f}/wb, periodic {:+.4f}/wb, simulated {}{}\n",
                  p.inside ? "inside" : "outside", p.gain, p.latency * 1e3, p.lti_abscissa * T, std::log(p.floquet_radius),
-                 p.simulated_growth, p.agree() ? "" : "  (models disagree)");
-    if (!checks.empty()) fmt::print("  {} of {} check points: averaged, periodic and simulated agree on stability\n", agreed, checks.size());
+                 std::isfinite(p.simulated_growth) ? fmt::format("{:+.4f}/wb", p.simulated_growth)
+                 : std::isinf(p.simulated_growth)  ? std::string("diverged (left the attitude envelope)")
+                                                   : std::string("not fitted"),
+                 p.agree() || !p.simulated() ? "" : "  (models disagree)");
+    const auto simulated = std::count_if(checks.begin(), checks.end(), [](const CheckPoint& p) { return p.simulated(); });
+    if (simulated > 0)
+      fmt::print("  {} of {} check points: averaged, periodic and simulated agree on stability\n", agreed, simulated);
+    if (simulated < std::ptrdiff_t(checks.size()))
+      fmt::print("  {} check points not compared: their flights are too short for a growth ([control.map] "
+                 "check_wingbeats = {:g}; the fit needs two wingbeats in the second half)\n",
+                 std::ptrdiff_t(checks.size()) - simulated, c.control.map_check_wingbeats);
     fmt::print("  case controller ({}): averaged {}, periodic {}\n", own.description,
                own_roots.spectral_abscissa() < 0 ? "stable" : "unstable", own_floquet.spectral_radius() < 1 ? "stable" : "unstable");
     if (!sweep.empty()) {
       fmt::print("  centre of mass moved below the wing hinges (open loop, growth per wingbeat):\n");
       fmt::print("  {:>10} {:>22} {:>10} {:>10} {:>10}\n", "dz (c)", "CoM below axis (mm)", "averaged", "Floquet", "simulated");
       for (const auto& p : sweep)
-        fmt::print("  {:>10.2f} {:>22.2f} {:>+10.4f} {:>+10.4f} {:>+10.4f}\n", p.dz / h.derivatives.table.reference.c,
-                   p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth, p.simulated_growth);
+        fmt::print("  {:>10.2f} {:>22.2f} {:>+10.4f} {:>+10.4f} {:>10}\n", p.dz / h.derivatives.table.reference.c,
+                   p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth,
+                   std::isfinite(p.simulated_growth) ? fmt::format("{:+.4f}", p.simulated_growth)
+                   : std::isinf(p.simulated_growth)  ? std::string("diverged")
+                                                     : std::string("not fitted"));
     }
     fmt::print("wrote {}/control_map.json, control_map.csv{}{} in {:.2f} s\n", dir, svg ? ", control_map.svg" : "",
                psvg ? ", control_map_periodic.svg" : "", seconds_since(t0));

@@ -279,7 +279,7 @@ GrowthEstimate wingbeat_growth(const FlightResult& r, const ReferenceOrbit& refe
         g.mean_deviation[std::size_t(k)] =
             std::max(g.mean_deviation[std::size_t(k)], std::abs(sum[std::size_t(k)](i)) / count[std::size_t(k)] * scale(i));
   g.last = n - 1;
-  g.first = first >= 0 ? std::min(first, g.last - 1) : n / 2;
+  g.first = first >= 0 ? std::max(0, std::min(first, g.last - 1)) : n / 2;  // a one-wingbeat flight: 0, not -1
   auto slope = [&](const std::vector<double>& dev) {
     double sx = 0, sy = 0, sxx = 0, sxy = 0;
     int cnt = 0;

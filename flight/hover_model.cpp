@@ -125,7 +125,7 @@ std::vector<ComSweepPoint> com_height_sweep(const Case& c, const AeroModel& mode
     const ReferenceOrbit ref = reference_orbit(h.orbit, T);
     const FlightResult r = simulate_flight(dyn, ControllerSpec{}, x0, ref, h.derivatives.table.reference, fo);
     p.simulated_growth = r.completed ? wingbeat_growth(r, ref, h.derivatives.table.reference, T, {3, 5, 7, 10}).per_wingbeat
-                                     : std::nan("");
+                                     : INFINITY;
     out.push_back(p);
   }
   return out;

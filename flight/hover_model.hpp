@@ -57,7 +57,8 @@ ControlSummary pitch_control_summary(const Case& c, const AeroModel& model, cons
 struct ComSweepPoint {
   double dz = 0;                      // m
   double com_below_axis_m = 0;        // distance of the CoM below the neutral axis
-  double lti_growth = 0, floquet_growth = 0, simulated_growth = 0;  // per wingbeat (> 0 unstable)
+  double lti_growth = 0, floquet_growth = 0;  // per wingbeat (> 0 unstable)
+  double simulated_growth = 0;  // per wingbeat; +infinity: the flight left the attitude envelope; NaN: too short to fit
   bool lti_oscillatory = false;
 };
 std::vector<ComSweepPoint> com_height_sweep(const Case& c, const AeroModel& model, const std::vector<double>& dz,

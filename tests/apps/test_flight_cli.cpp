@@ -212,6 +212,29 @@ TEST(ControlMapCli, SmallHawkmothMap) {
   EXPECT_EQ(header, "gain,latency_s,latency_wingbeats,spectral_abscissa_per_s,growth_per_wingbeat,stable");
 }
 
+// Check flights too short for a growth (check_wingbeats = 1: the fit needs two wingbeats in the second half) are not
+// compared: their growth reads "not fitted" and their agreement null in the JSON, and the terminal says how many were
+// left out instead of counting them as disagreements (it printed "+nan/wb  (models disagree)" and "1 of 2 agree").
+TEST(ControlMapCli, CheckFlightsTooShortForAGrowthAreNotCompared) {
+  std::string h = hawkmoth_text();
+  h = replaced(h, "gains = 50", "gains = 8\ncheck_points = 1\ncheck_wingbeats = 1\nperiodic_gains = 0\n"
+                                      "periodic_latencies = 0");
+  h = replaced(h, "latencies = 50", "latencies = 8");
+  const std::string dir = fresh_dir("map_short");
+  const CliResult r = flapstab("control-map " + testing::write_temp("map_short.toml", h) + " -o " + dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream js(dir + "/control_map.json");
+  const auto j = nlohmann::json::parse(js);
+  ASSERT_EQ(j.at("check_points").size(), 2u);
+  for (const auto& p : j.at("check_points")) {
+    EXPECT_EQ(p.at("simulated_growth_per_wingbeat"), "not fitted") << p.dump();
+    EXPECT_TRUE(p.at("all_three_agree").is_null()) << p.dump();
+  }
+  EXPECT_NE(r.out.find("2 check points not compared"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("models disagree"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("+nan"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace flapstab
 

@@ -274,5 +274,39 @@ TEST(FreeFlight, WingbeatMeanDeviationRemovesTheRocking) {
   EXPECT_GT(std::abs(e.per_wingbeat - g), 0.1);  // the rocking hides the growth in the largest deviation
 }
 
+// The growth fit's window stays inside the flight. With a first wingbeat given (the library's callers may; flapstab's
+// commands take the default, the second half) a flight of one wingbeat used to get first = -1, and the fit read
+// past the start of its deviations and returned a number. Now the fit is empty (first = last = 0, no growth). On four wingbeats of a deviation growing as exp(0.3 t / T) the fit over
+// wingbeats 2-3 of the wingbeat means (the same sample phases in each) gives 0.3 per wingbeat.
+TEST(FreeFlight, GrowthFitWindowStaysInsideTheFlight) {
+  const double T = 0.04;
+  ReferenceQuantities ref;
+  ref.U = 2;
+  ref.c = 0.02;
+  ReferenceOrbit orbit;
+  orbit.state = [](double) { return BodyStateVector::Zero(); };
+  auto flight = [&](int wingbeats) {
+    FlightResult r;
+    for (int k = 0; k <= 20 * wingbeats; ++k) {
+      FlightSample s;
+      s.t = k * T / 20;
+      s.x = BodyStateVector::Zero();
+      s.x(10) = 1e-3 * std::exp(0.3 * s.t / T);  // theta, rad
+      r.samples.push_back(s);
+    }
+    return r;
+  };
+  const GrowthEstimate one = wingbeat_growth(flight(1), orbit, ref, T, {10}, 3);
+  EXPECT_EQ(one.first, 0);
+  EXPECT_EQ(one.last, 0);
+  EXPECT_TRUE(std::isnan(one.per_wingbeat));
+  EXPECT_TRUE(std::isnan(one.mean_per_wingbeat));
+  const GrowthEstimate four = wingbeat_growth(flight(4), orbit, ref, T, {10}, 3);
+  EXPECT_EQ(four.first, 2);
+  EXPECT_EQ(four.last, 3);
+  EXPECT_NEAR(four.mean_per_wingbeat, 0.3, 1e-9);
+  EXPECT_GT(four.per_wingbeat, 0.3);  // the last wingbeat's maximum is its closing sample, one sample later
+}
+
 }  // namespace
 }  // namespace flapstab
