@@ -291,7 +291,22 @@ CfdResult run_cfd(const Case& c, const Kinematics& kin, const BodyMotion& motion
 
   // Observers (files created lazily: bad input and dry runs write nothing). One run per directory at a time.
   std::optional<ExclusiveRun> exclusive;
-  if (write) on_root(D, [&] { exclusive.emplace(o.directory, "-o"); });
+  if (write)
+    on_root(D, [&] {
+      exclusive.emplace(o.directory, "-o");  // first: a run still writing there is named as such
+      // A run from rest into the directory of another run would overwrite that run's forces.csv at its first
+      // checkpoint (the earlier checkpoints could then no longer continue), and the other run's later-numbered
+      // checkpoints would outlive this run's own (the newest two by step are kept) and be what --restart picked up.
+      if (ck) return;
+      const auto earlier = checkpoints_in(ckdir);
+      if (!earlier.empty())
+        throw InputError(ckdir, "--restart",
+                         fmt::format("holds {} checkpoint{} of an earlier run (the newest at step {}), and this run "
+                                     "starts from rest: it would overwrite that run's forces.csv",
+                                     earlier.size(), earlier.size() == 1 ? "" : "s", earlier.back().first),
+                         "--restart to continue that run, or another output directory (or the old one removed) to "
+                         "start again");
+    });
   ForcesCsv csv(write ? o.directory + "/forces.csv" : std::string(), sim.part_count());
   if (D.distributed()) csv.set_decomposition(dec);
   if (write && ck) csv.keep_earlier(o.directory + "/forces.csv", start_step);  // InputError when rows are missing

@@ -578,6 +578,22 @@ TEST(CfdCli, InterruptWritesACheckpointAndRestartContinues) {
     EXPECT_EQ(last.substr(last.find(',') + 1, last.find(',', last.find(',') + 1) - last.find(',') - 1),
               std::to_string(newest));
   }
+  // The same command without --restart (a run from rest into this run's directory) is refused: it would overwrite
+  // forces.csv at its first checkpoint, and this run's later checkpoints would outlive its own. Before, it ran, kept
+  // the interrupted run's checkpoints and deleted its own; --restart then found forces.csv short of them.
+  {
+    std::ifstream before(dir / "forces.csv");
+    std::stringstream rows;
+    rows << before.rdbuf();
+    const CfdRunOutput again = flapstab_cfd(path + " -o " + dir.string() + " --steps 2");
+    EXPECT_EQ(again.status, 2) << again.out;
+    EXPECT_NE(again.err.find(" of an earlier run (the newest at step "), std::string::npos) << again.err;
+    EXPECT_NE(again.err.find("--restart to continue that run"), std::string::npos) << again.err;
+    std::ifstream after(dir / "forces.csv");
+    std::stringstream now;
+    now << after.rdbuf();
+    EXPECT_EQ(now.str(), rows.str());
+  }
   // Continue for two steps (--steps), then check the rows run on without a gap.
   const CfdRunOutput r = flapstab_cfd(path + " -o " + dir.string() + " --restart --steps 2 --cycles 50");
   EXPECT_EQ(r.status, 0) << r.err;
