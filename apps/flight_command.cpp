@@ -280,7 +280,8 @@ struct CheckPoint {
   // Whether the flight gave a growth or diverged ([control.map] check_wingbeats long enough to fit one).
   bool simulated() const { return !std::isnan(simulated_growth); }
   bool agree() const {
-    return simulated() && (lti_abscissa < 0) == (simulated_growth < 0) && (floquet_radius < 1) == (simulated_growth < 0);
+    const bool grows = simulated_growth >= 0;
+    return simulated() && (lti_abscissa >= 0) == grows && (floquet_radius >= 1) == grows;
   }
 };
 
@@ -312,6 +313,10 @@ CheckPoint check_point(const HoverModel& h, const FlightDynamics& dyn, const Pit
 // ([control.map] check_wingbeats leaves fewer than two wingbeats with a deviation to fit).
 json simulated_growth_json(double g) {
   return std::isfinite(g) ? json(g) : std::isinf(g) ? json("diverged") : json("not fitted");
+}
+// The same for the terminal: the growth per wingbeat with its sign, or the word.
+std::string simulated_growth_text(double g) {
+  return std::isfinite(g) ? fmt::format("{:+.4f}", g) : std::isinf(g) ? "diverged" : "not fitted";
 }
 
 json latency_json(double tau, double T) {
@@ -645,11 +650,10 @@ int run_control_map(const FlightCommandOptions& o) {
     for (const auto& p : checks)
       fmt::print("  check {:7} gain {:.4g}, latency {:6.2f} ms: LTI {:+.4f}/wb, periodic {:+.4f}/wb, simulated {}{}\n",
                  p.inside ? "inside" : "outside", p.gain, p.latency * 1e3, p.lti_abscissa * T, std::log(p.floquet_radius),
-                 std::isfinite(p.simulated_growth) ? fmt::format("{:+.4f}/wb", p.simulated_growth)
-                 : std::isinf(p.simulated_growth)  ? std::string("diverged (left the attitude envelope)")
-                                                   : std::string("not fitted"),
+                 simulated_growth_text(p.simulated_growth) + (std::isfinite(p.simulated_growth) ? "/wb" : ""),
                  p.agree() || !p.simulated() ? "" : "  (models disagree)");
-    const auto simulated = std::count_if(checks.begin(), checks.end(), [](const CheckPoint& p) { return p.simulated(); });
+    const auto simulated =
+        std::count_if(checks.begin(), checks.end(), [](const CheckPoint& p) { return p.simulated(); });
     if (simulated > 0)
       fmt::print("  {} of {} check points: averaged, periodic and simulated agree on stability\n", agreed, simulated);
     if (simulated < std::ptrdiff_t(checks.size()))
@@ -663,10 +667,7 @@ int run_control_map(const FlightCommandOptions& o) {
       fmt::print("  {:>10} {:>22} {:>10} {:>10} {:>10}\n", "dz (c)", "CoM below axis (mm)", "averaged", "Floquet", "simulated");
       for (const auto& p : sweep)
         fmt::print("  {:>10.2f} {:>22.2f} {:>+10.4f} {:>+10.4f} {:>10}\n", p.dz / h.derivatives.table.reference.c,
-                   p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth,
-                   std::isfinite(p.simulated_growth) ? fmt::format("{:+.4f}", p.simulated_growth)
-                   : std::isinf(p.simulated_growth)  ? std::string("diverged")
-                                                     : std::string("not fitted"));
+                   p.com_below_axis_m * 1e3, p.lti_growth, p.floquet_growth, simulated_growth_text(p.simulated_growth));
     }
     fmt::print("wrote {}/control_map.json, control_map.csv{}{} in {:.2f} s\n", dir, svg ? ", control_map.svg" : "",
                psvg ? ", control_map_periodic.svg" : "", seconds_since(t0));

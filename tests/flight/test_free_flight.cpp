@@ -276,8 +276,9 @@ TEST(FreeFlight, WingbeatMeanDeviationRemovesTheRocking) {
 
 // The growth fit's window stays inside the flight. With a first wingbeat given (the library's callers may; flapstab's
 // commands take the default, the second half) a flight of one wingbeat used to get first = -1, and the fit read
-// past the start of its deviations and returned a number. Now the fit is empty (first = last = 0, no growth). On four wingbeats of a deviation growing as exp(0.3 t / T) the fit over
-// wingbeats 2-3 of the wingbeat means (the same sample phases in each) gives 0.3 per wingbeat.
+// past the start of its deviations and returned a number. Now the fit is empty (first = last = 0, no growth). On
+// four wingbeats of a deviation growing as exp(0.3 t / T) the fit over wingbeats 2-3 of the wingbeat means (the same
+// sample phases in each) gives 0.3 per wingbeat.
 TEST(FreeFlight, GrowthFitWindowStaysInsideTheFlight) {
   const double T = 0.04;
   ReferenceQuantities ref;
