@@ -73,7 +73,7 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
   for (std::size_t i = 0; i < r.fpm_regions.size(); ++i)
     if (r.fpm_regions[i].find("leading-edge") != std::string::npos) le.push_back(i);
   struct Sum {
-    double t = 0, solver = 0, pressure = 0, added = 0, car = 0, vortex = 0, lev = 0, viscous = 0, outer = 0;
+    double t = 0, solver = 0, pressure = 0, forced = 0, added = 0, car = 0, vortex = 0, lev = 0, viscous = 0, outer = 0;
     double sum() const { return added + car + vortex + viscous + outer; }
   };
   std::vector<Sum> samples;  // wing rows of F_z, summed per sample
@@ -82,12 +82,15 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
     if (samples.empty() || samples.back().t != row.time) samples.push_back(Sum{row.time});
     Sum& m = samples.back();
     m.solver -= row.solver_pressure / W, m.pressure -= row.pressure / W, m.added -= row.added_mass() / W;
+    m.forced -= row.pressure_forced / W;
     m.car -= row.centripetal / W, m.vortex -= row.vortex / W, m.viscous -= row.viscous / W, m.outer -= row.outer / W;
     for (std::size_t i : le) m.lev -= row.regions[i] / W;
   }
   if (samples.empty()) return;  // F_z not partitioned or no wing
   std::vector<Series> series = {{"run's pressure lift (forces.csv)", {}, {}},
-                                {"cut-cell pressure lift (what the parts sum to, up to the closure error)", {}, {}},
+                                {"cut-cell pressure lift", {}, {}},
+                                {"cut-cell pressure lift off the forced faces (what the parts sum to)", {}, {},
+                                 "lines dt 2"},
                                 {"sum of the parts", {}, {}, "lines dt 3"},
                                 {"added mass", {}, {}},
                                 {"centripetal acceleration reaction", {}, {}},
@@ -96,13 +99,14 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
                                 {"viscous", {}, {}},
                                 {"outer boundary", {}, {}}};
   for (const Sum& m : samples) {
-    const double v[9] = {m.solver, m.pressure, m.sum(), m.added, m.car, m.vortex, m.lev, m.viscous, m.outer};
-    for (int i = 0; i < 9; ++i) {
+    const double v[10] = {m.solver,   m.pressure, m.pressure - m.forced, m.sum(),   m.added,
+                          m.car,      m.vortex,   m.lev,                 m.viscous, m.outer};
+    for (int i = 0; i < 10; ++i) {
       series[std::size_t(i)].x.push_back(m.t / T);
       series[std::size_t(i)].y.push_back(v[i]);
     }
   }
-  if (le.empty()) series.erase(series.begin() + 6);
+  if (le.empty()) series.erase(series.begin() + 7);
   LinePlot p;
   p.title = "flapstab cfd: force partition of the wings' lift";
   p.xlabel = "t / T (wingbeats)";

@@ -74,6 +74,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
   G.shape = s;
   G.parts = parts;
   for (auto& a : G.aperture) a = Field(s);
+  for (auto& f : G.forced) f.assign(s.size(), 0);
   G.volume_fraction = Field(s);
   auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1); };
   // the periodic image of an index along axis a (ghosts 0 and n+1), or -1 outside a walled axis
@@ -112,6 +113,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     const int e = (d + 1) % 3, f = (d + 2) % 3;
     const ns::Axis &ae = g.axis[std::size_t(e)], &af = g.axis[std::size_t(f)];
     Field& ap = G.aperture[std::size_t(d)];
+    std::vector<char>& forced = G.forced[std::size_t(d)];
     // Planes in parallel; each keeps its solid shares, joined in plane order afterwards (the same list as serially).
     const int planes = s.nz + (d == 2);
     std::vector<std::vector<FaceSolid>> plane_solids(std::size_t(planes) + 1);
@@ -144,6 +146,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
             centre[f] = af.xc[std::size_t(I[f])];
             const double reach = 0.5 * std::hypot(we, wf);
             const auto [v, who] = lowest(level, parts, centre, h);
+            if (v < h) forced[std::size_t(s(i, j, k))] = 1;  // the forcing's solid or band face
             if (v > reach) {
               ap(i, j, k) = 1;
               continue;
@@ -179,7 +182,17 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     }
     G.sampled_faces += sampled;
     for (const auto& v : plane_solids) solids.insert(solids.end(), v.begin(), v.end());
-    if (ad.periodic) copy_periodic_faces(ap, s, d);
+    if (ad.periodic) {
+      copy_periodic_faces(ap, s, d);
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            int J[3] = {i, j, k};
+            if (J[d] != 1) continue;
+            J[d] = s.n(d) + 1;
+            forced[std::size_t(s(J[0], J[1], J[2]))] = forced[std::size_t(s(i, j, k))];
+          }
+    }
   }
   // fluid volume fraction: the mean aperture of the cell's faces inside the domain
 #pragma omp parallel for schedule(static) if (ns::threaded(s))

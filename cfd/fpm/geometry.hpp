@@ -41,6 +41,11 @@ struct FluidGeometry {
     Vec3 centroid = Vec3::Zero();      // of the piece (m), for the surface acceleration
   };
   std::vector<Cut> cuts;
+  // Faces the immersed boundary's direct forcing sets (per axis d, indexed like a Field of `shape`: 1 where the lowest
+  // level set at the face centre lies below the face's local width h, the solid and interface-band faces of
+  // docs/theory/navier-stokes.md §7). The momentum equation does not hold there; the partition's viscous term leaves
+  // them out (docs/theory/force-partitioning.md, "Discretisation").
+  std::array<std::vector<char>, 3> forced;
   std::size_t sampled_faces = 0;       // faces the lattice sampled (near a surface)
   std::size_t pocket_cells = 0;        // fluid cells cut off from the domain's faces by the parts, taken out
   bool active(std::ptrdiff_t n) const { return volume_fraction[n] > 0; }

@@ -39,6 +39,7 @@ struct FpmRow {
   double centripetal = 0;    // the centripetal acceleration reaction (CAR)
   double vortex = 0, viscous = 0, outer = 0;
   double solver_pressure = 0, solver_viscous = 0;  // the run's own pressure and skin-friction loads (forces.csv)
+  double pressure_forced = 0;  // the share of `pressure` on the faces the immersed boundary forces (PartPartition)
   std::vector<double> regions;  // the vortex-induced part by region (FpmObserver::region_names)
   double added_mass() const { return kinematic - centripetal; }
   double sum() const { return kinematic + vortex + viscous + outer; }

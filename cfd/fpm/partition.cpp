@@ -290,7 +290,8 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     const ns::Axis& ad = g.axis[std::size_t(d)];
     const int e = (d + 1) % 3, h = (d + 2) % 3;
     const Field& ud = u[d];
-    Field& w = lap_area[d];  // zero where no open face
+    const std::vector<char>& forced_d = o.forced[std::size_t(d)];
+    Field& w = lap_area[d];  // zero where no open face or a forced one
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int kk = 1; kk <= s.nz; ++kk)
       for (int j = 1; j <= s.ny; ++j)
@@ -303,7 +304,10 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
           const double beta = o.aperture[std::size_t(d)](ii, j, kk);
           const double area = g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
           if (sponge) sponge_area[d](ii, j, kk) *= beta > 0 ? beta * area : 0.0;
-          if (beta <= 0) continue;
+          // Faces the immersed boundary forces are left out: their MAC Laplacian spans the kink between the band's
+          // reconstructed profile and the rigid velocity inside the part, about mu du/dn per unit area, which does not
+          // vanish with the grid; the momentum equation it stands for does not hold there (direct forcing replaces it).
+          if (beta <= 0 || forced_d[std::size_t(s(ii, j, kk))]) continue;
           int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
           ++A[d];
           --B[d];
@@ -323,6 +327,32 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
+  // The open faces the immersed boundary forces, with a_f (p_c - p_nb): the pressure's share there is the sum of
+  // these times (phi_c - phi_nb) (the discrete Green identity of the direct pressure force)
+  struct ForcedFace {
+    std::ptrdiff_t n, stride;
+    double weight;
+  };
+  std::vector<ForcedFace> forced_faces;
+  for (int d = 0; d < 3; ++d) {
+    const ns::Axis& ad = g.axis[std::size_t(d)];
+    const int e = (d + 1) % 3, h = (d + 2) % 3;
+    const std::ptrdiff_t stride = d == 0 ? 1 : d == 1 ? s.sy : s.sz;
+    const std::vector<char>& forced_d = o.forced[std::size_t(d)];
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int ii = 1; ii <= s.nx; ++ii) {
+          const std::ptrdiff_t n = s(ii, j, kk);
+          if (!forced_d[std::size_t(n)]) continue;
+          const int I[3] = {ii, j, kk};
+          const double beta = o.aperture[std::size_t(d)][n];
+          if (beta <= 0 || (!ad.periodic && I[d] == 1)) continue;
+          const double area =
+              g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+          forced_faces.push_back({n, stride, beta * area * ad.idf[std::size_t(I[d])] * (p[n] - p[n - stride])});
+        }
+  }
+
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
   std::vector<double> vortex_weight(s.cells());
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
@@ -336,7 +366,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   // The terms of one potential of part i (datum k): rho-scaled as in the partition's formula, the regions' share of the
   // vortex-induced part (region_count_ entries; none without regions).
   struct Terms {
-    double kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0, pressure = 0;
+    double kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0, pressure = 0, pressure_forced = 0;
     std::vector<double> regions;
   };
   auto terms = [&](int i, int k) {
@@ -392,6 +422,9 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     T.viscous = mu * visc;
     T.outer = -rho * outer_term + rho * layer;
     T.pressure = rho * direct;
+    double band = 0;
+    for (const ForcedFace& f : forced_faces) band += f.weight * (phi[f.n] - phi[f.n - f.stride]);
+    T.pressure_forced = rho * band;
     return T;
   };
 
@@ -407,6 +440,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       P.viscous[k] = T.viscous;
       P.outer[k] = T.outer;
       P.pressure[k] = T.pressure;
+      P.pressure_forced[k] = T.pressure_forced;
       for (std::size_t r = 0; r < T.regions.size(); ++r) P.vortex_regions[r][k] = T.regions[r];
     }
     if (opt_.power) {
@@ -419,6 +453,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       P.power_viscous = -T.viscous;
       P.power_outer = -T.outer;
       P.power_pressure = -T.pressure;
+      P.power_pressure_forced = -T.pressure_forced;
       for (double v : T.regions) P.power_vortex_regions.push_back(-v);
     } else {
       const PartState& st = states[std::size_t(i)];
@@ -429,6 +464,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       P.power_viscous = power(P.viscous);
       P.power_outer = power(P.outer);
       P.power_pressure = power(P.pressure);
+      P.power_pressure_forced = power(P.pressure_forced);
     }
   }
   un_prev_ = std::move(un_now);

@@ -41,13 +41,19 @@ struct PartPartition {
   Vec6 viscous = Vec6::Zero();      // mu int lap u . grad phi dV
   Vec6 outer = Vec6::Zero();        // -rho oint_domain phi Du/Dt . n dS + rho int f_sponge . grad phi dV
   Vec6 pressure = Vec6::Zero();     // -oint p g dS on the staircase surface (the partition's sum, computed directly)
+  // The share of `pressure` on the faces the immersed boundary forces (FluidGeometry::forced): the terms of the
+  // discrete Green identity pressure = sum over open faces of a_f (p_c - p_nb)(phi_c - phi_nb) there. Direct forcing
+  // replaces the momentum equation on those faces, so no part accounts for it: the parts sum to pressure -
+  // pressure_forced up to their own discretisation error, and pressure_forced is the forcing's share of the closure
+  // gap (docs/theory/force-partitioning.md).
+  Vec6 pressure_forced = Vec6::Zero();
   std::vector<Vec6> vortex_regions; // the vortex-induced part by region (set_regions; empty without), summing to vortex
   // Rate of work of the part on the fluid by mechanism, W: -(F . v(x0) + M . omega) with the part's rigid velocity.
   // With FpmOptions::power they come from the power potential (one Laplace problem instead of six; the same up to the
   // solver's tolerance), otherwise from the six components (zero unless all six are partitioned). The power's regions
   // and its centripetal share are filled with FpmOptions::power only.
   double power_kinematic = 0, power_vortex = 0, power_viscous = 0, power_outer = 0, power_pressure = 0;
-  double power_centripetal = 0;
+  double power_centripetal = 0, power_pressure_forced = 0;
   std::vector<double> power_vortex_regions;
   Vec6 sum() const { return kinematic + vortex + viscous + outer; }
   Vec6 added_mass() const { return kinematic - centripetal; }  // classical: from a + alpha x r

@@ -138,8 +138,9 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
         {"units", "the row's unit column: N (Fx Fy Fz), N m (Mx My Mz), W (power: the part's work on the air)"},
         {"columns", "pressure = the cut-cell pressure load the partition sums to; kinematic = added_mass + centripetal "
                     "(acceleration reaction); vortex, viscous, outer; sum = kinematic + vortex + viscous + outer; "
-                    "solver_pressure, solver_viscous = the run's loads (forces.csv); vortex.REGION = the vortex-induced "
-                    "part by region of the flow"}};
+                    "solver_pressure, solver_viscous = the run's loads (forces.csv); pressure_forced = the share of "
+                    "pressure on the faces the immersed boundary forces, which no part accounts for; vortex.REGION = "
+                    "the vortex-induced part by region of the flow"}};
   }
   write_file_atomic(path, j.dump(2) + "\n");
 }

@@ -2,7 +2,9 @@
 // partition of computed flows (closure, impulsive start).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -285,20 +287,27 @@ Accelerated accelerated_sphere(double h) {
 // direct force's error: asserted to fall at least 1.6-fold from R/8 to R/16 (first order: 2).
 TEST(FpmPartition, ImpulsivelyAcceleratedSphereIsAllKinematic) {
   const double R = 0.5, a = 1.0, V = 4.0 / 3.0 * pi * R * R * R, ref = -0.5 * V * a;
-  double gap[2];
+  double gap[2], free_gap[2];
   int n = 0;
   for (double h : {R / 8, R / 16}) {
     const Accelerated r = accelerated_sphere(h);
     const fpm::PartPartition& P = r.P;
     print(fmt::format("accelerated sphere, h = R/{:.0f}, F_x / (rho V a / 2)", R / h).c_str(), P, 0, -ref);
-    fmt::print("  immersed boundary pressure force / (rho V a / 2): surface {:+.5f}, momentum exchange {:+.5f}\n",
-               r.surface / -ref, r.exchange / -ref);
+    fmt::print("  immersed boundary pressure force / (rho V a / 2): surface {:+.5f}, momentum exchange {:+.5f}; "
+               "direct pressure off the forced faces {:+.5f}\n",
+               r.surface / -ref, r.exchange / -ref, (P.pressure[0] - P.pressure_forced[0]) / -ref);
     EXPECT_NEAR(P.kinematic[0] / ref, 1.0, 0.02);
     EXPECT_LT(std::abs(P.vortex[0] + P.viscous[0]), 0.05 * std::abs(P.kinematic[0]));
     EXPECT_LT(std::abs(P.centripetal[0]), 1e-12);
-    gap[n++] = std::abs(P.sum()[0] / P.pressure[0] - 1);
+    gap[n] = std::abs(P.sum()[0] / P.pressure[0] - 1);
+    free_gap[n++] = std::abs(P.sum()[0] / (P.pressure[0] - P.pressure_forced[0]) - 1);
   }
   EXPECT_GT(gap[0] / gap[1], 1.6);
+  // The direct force's excess is on the faces the immersed boundary forces: off them it is 0.933 and 0.985 of
+  // rho V a / 2 (R/8, R/16), and the parts' sum is within 6.7 % and 1.7 % of it. Asserted: below 3 % on R/16 and
+  // falling at least 2-fold.
+  EXPECT_LT(free_gap[1], 0.03);
+  EXPECT_GT(free_gap[0] / free_gap[1], 2.0);
 }
 
 // u_x at the origin, interpolated trilinearly from the staggered field.
@@ -424,16 +433,111 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
                  exchange = flow.ib.exchange_loads(flow.solver, Vec3::Zero())[0].pressure_force.x() / q;
     fmt::print("  immersed boundary pressure C_D: surface {:.4f}, momentum exchange {:.4f}\n", surface, exchange);
     EXPECT_GT(P.vortex[0] + P.viscous[0] + P.outer[0], 0.0);  // a drag
+    // against the pressure off the forced faces: measured -1.4 % and +1.1 % (D/8, D/12)
+    const double free = P.pressure[0] - P.pressure_forced[0];
+    fmt::print("  pressure on the forced faces {:.4f}; sum / (direct - it) - 1 = {:+.4f}\n", P.pressure_forced[0] / q,
+               P.sum()[0] / free - 1);
+    EXPECT_GT(P.pressure_forced[0], 0.0);
+    EXPECT_NEAR(P.sum()[0] / free, 1.0, 0.03);
     gap[n++] = std::abs(P.sum()[0] / P.pressure[0] - 1);
   }
   fmt::print("  closure gap |sum / direct - 1|: {:.4f} (D/8), {:.4f} (D/12)\n", gap[0], gap[1]);
-  // Measured: the parts sum to 0.275 / 0.322 of the direct 0.405 / 0.440 (gap 32 % / 27 %). The volume terms are
-  // not at fault: the same sum taken with the solver's own discrete advection and diffusion at every open face
-  // (the flux form the momentum equation is solved in) gives 0.239 / 0.283, and its viscous part equals the one here
-  // to 4 digits. What is missing is the band of faces next to the surface where direct forcing replaces the momentum
-  // equation: there the solver's pressure gradient balances the forcing, not the flow's acceleration, and the
-  // direct pressure force carries that forcing. Asserted: the gap falls with the grid (the band narrows).
-  EXPECT_LT(gap[1], gap[0]);
+  // Measured: the parts sum to 0.331 / 0.391 of the direct 0.405 / 0.441 (gap 18.2 % / 11.4 %: 1.6-fold for a
+  // 1.5-fold finer grid, first order). What remains is the pressure on the faces the immersed boundary forces, where
+  // direct forcing replaces the momentum equation (0.068 / 0.055 of C_D, DISABLED_SteadySphereClosureStudy below).
+  // Before the viscous term left those faces out (2026-12-07) their MAC Laplacian, which spans the kink between the
+  // band's profile and the rigid velocity inside the sphere, took -0.055 / -0.068 off the sum: gaps 32 % / 27 %, and
+  // at Re 20 a gap of 31 % on every grid. Asserted: below 15 % on D/12 and falling at least 1.3-fold.
+  EXPECT_LT(gap[1], 0.15);
+  EXPECT_GT(gap[0] / gap[1], 1.3);
+}
+
+// The steady sphere's closure on a series of grids and two Reynolds numbers (a study, not run in CI; results in
+// docs/validation.md, "Force partitioning"):
+//   FLAPSTAB_FPM_RE=100 FLAPSTAB_FPM_GRIDS="8,12,16" ./build/tests/test_cfd --gtest_also_run_disabled_tests
+//     --gtest_filter='FpmPartition.DISABLED_SteadySphereClosureStudy'
+// Grids finer than D/16 solve the pressure with hypre (the multigrid's point smoother stalls on the stretched cells).
+// The direct pressure force equals sum over open faces of a_f (p_c - p_nb)(phi_c - phi_nb) exactly (the discrete
+// Green identity, docs/theory/force-partitioning.md). Printed beside the parts: that sum over the faces the immersed
+// boundary forces (where the momentum equation does not hold) and over the rest, and the viscous term the forced
+// faces would add if they were not left out (the MAC Laplacian there, as over the other open faces).
+TEST(FpmPartition, DISABLED_SteadySphereClosureStudy) {
+  const double q = 0.5 * pi / 4;
+  const double re = std::getenv("FLAPSTAB_FPM_RE") ? std::atof(std::getenv("FLAPSTAB_FPM_RE")) : 100.0;
+  std::vector<int> grids;
+  {
+    std::string list = std::getenv("FLAPSTAB_FPM_GRIDS") ? std::getenv("FLAPSTAB_FPM_GRIDS") : "8,12,16";
+    for (std::size_t a = 0; a < list.size();) {
+      const std::size_t b = std::min(list.find(',', a), list.size());
+      grids.push_back(std::stoi(list.substr(a, b - a)));
+      a = b + 1;
+    }
+  }
+  for (int m : grids) {
+    const auto t0 = std::chrono::steady_clock::now();
+    testing::SphereInStream flow(1.0 / m, 1.1, std::max(12, 2 * m), m > 16, re);
+    while (flow.solver.time() + flow.solver.stable_dt() < 8) flow.solver.step();
+    ForcePartition f(flow.grid, {.components = {0}});
+    f.record_boundary(flow.solver);
+    flow.solver.step();
+    const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
+    f.update(flow.ib, states);
+    const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
+    const Grid& g = flow.grid;
+    const Shape s = g.shape();
+    const fpm::FluidGeometry& o = f.geometry();
+    const Field& p = flow.solver.pressure();
+    const Field& phi = f.potential(0, 0);
+    const double nu = flow.solver.options().nu;
+    double green_forced = 0, green_free = 0, viscous_forced = 0;
+    for (int d = 0; d < 3; ++d) {
+      const Axis& ad = g.axis[std::size_t(d)];
+      const int e = (d + 1) % 3, hh = (d + 2) % 3;
+      const Field& ud = flow.solver.velocity()[d];
+      for (int k = 1; k <= s.nz; ++k)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int i = 1; i <= s.nx; ++i) {
+            const int I[3] = {i, j, k};
+            const double beta = o.aperture[std::size_t(d)](i, j, k);
+            if (I[d] == 1 || beta <= 0) continue;
+            int B[3] = {i, j, k}, A[3] = {i, j, k};
+            --B[d];
+            ++A[d];
+            const double area =
+                g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(hh)].dc[std::size_t(I[hh])];
+            const double dphi = phi(i, j, k) - phi(B[0], B[1], B[2]);
+            const double green = beta * area * ad.idf[std::size_t(I[d])] * (p(i, j, k) - p(B[0], B[1], B[2])) * dphi;
+            if (!o.forced[std::size_t(d)][std::size_t(s(i, j, k))]) {
+              green_free += green;
+              continue;
+            }
+            green_forced += green;
+            const std::size_t F = std::size_t(I[d]);
+            double lap = ((ud(A[0], A[1], A[2]) - ud(i, j, k)) * ad.idc[F] -
+                          (ud(i, j, k) - ud(B[0], B[1], B[2])) * ad.idc[F - 1]) * ad.idf[F];
+            for (int a : {e, hh}) {
+              const Axis& aa = g.axis[std::size_t(a)];
+              int Pp[3] = {i, j, k}, Mm[3] = {i, j, k};
+              ++Pp[a];
+              --Mm[a];
+              const std::size_t J = std::size_t(I[a]);
+              lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(i, j, k)) * aa.idf[J + 1] -
+                      (ud(i, j, k) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
+            }
+            viscous_forced += nu * lap * beta * area * dphi;
+          }
+    }
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    fmt::print("Re {:g}, D/{}: {} cells, t = {:.2f}, {:.0f} s\n", re, m, g.cells(), flow.solver.time(), secs);
+    fmt::print("  C_D parts: vortex {:.4f}, viscous {:.4f}, outer {:.4f}; sum {:.4f}; direct {:.4f}; gap {:.1f} %\n",
+               P.vortex[0] / q, P.viscous[0] / q, P.outer[0] / q, P.sum()[0] / q, P.pressure[0] / q,
+               100 * (1 - P.sum()[0] / P.pressure[0]));
+    fmt::print("  direct over the forced faces {:.4f}, over the rest {:.4f}; viscous term of the forced faces "
+               "(left out) {:.4f}\n",
+               green_forced / q, green_free / q, viscous_forced / q);
+    // the identity holds up to the potential's tolerance
+    EXPECT_NEAR(green_forced + green_free, P.pressure[0], 1e-6 * std::abs(P.pressure[0]));
+  }
 }
 
 // Closure on an unsteady flow: the sphere oscillating in fluid at rest (the immersed boundary's Stokes-force case,
@@ -442,18 +546,20 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
 // Its worst error over the phases, relative to the force's amplitude, was measured at 3.9 % (D/8) and 1.6 % (D/12):
 // the cut cells change as the sphere crosses 0.4 cells, more on the coarser grid (the static sphere's added mass at
 // D/12 is -0.24 %). Asserted: below 2 % on D/12 and falling with the grid. Closure: the rms over the phases of
-// (sum - direct cut-cell pressure force), relative to the direct force's peak, measured 28 % and 24 % (the viscous
-// part dominates at Re 0.8; the deficit is the forcing band's, as for the steady sphere), asserted to fall.
+// (sum - direct cut-cell pressure force), relative to the direct force's peak, measured 24.2 % and 16.9 % (the
+// viscous part dominates at Re 0.8; what remains is the pressure on the forced faces, which carries direct forcing's
+// first-order error next to an accelerating body, as in the impulsive start above); 28 % and 24 % before the viscous
+// term left the forced faces out. Asserted: below 20 % on D/12 and falling at least 1.25-fold.
 TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
   using Osc = testing::OscillatingSphere;
   const double V = 4.0 / 3.0 * pi * Osc::R * Osc::R * Osc::R, am = 0.5 * V, amp = am * Osc::u0 * Osc::omega;
-  double gap[2], kin[2];
+  double gap[2], kin[2], free_gap[2];
   int n = 0;
   for (double h : {1.0 / 8, 1.0 / 12}) {
     Osc flow(h, true, 12);
     ForcePartition f(flow.grid, {.components = {0}});
     const int N = flow.per_period, sample_every = N / 8;
-    double sum2 = 0, peak = 0, worst_kin = 0;
+    double sum2 = 0, free2 = 0, peak = 0, worst_kin = 0;
     for (int k = 1; k <= 3 * N; ++k) {
       if (k > 2 * N && k % sample_every == 0) f.record_boundary(flow.solver);
       flow.solver.step();
@@ -464,6 +570,7 @@ TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
       const double a = states[0].acceleration.x();
       worst_kin = std::max(worst_kin, std::abs(P.kinematic[0] + am * a) / amp);
       sum2 += std::pow(P.sum()[0] - P.pressure[0], 2);
+      free2 += std::pow(P.sum()[0] - P.pressure[0] + P.pressure_forced[0], 2);
       peak = std::max(peak, std::abs(P.pressure[0]));
       fmt::print("  h = D/{:.0f}, t/T = {:.3f}: kinematic {:+.5f} (added mass {:+.5f}), vortex {:+.5f}, viscous {:+.5f}, "
                  "outer {:+.5f}; sum {:+.5f}, direct {:+.5f}\n",
@@ -471,14 +578,20 @@ TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
                  P.outer[0] / amp, P.sum()[0] / amp, P.pressure[0] / amp);
     }
     kin[n] = worst_kin;
+    free_gap[n] = std::sqrt(free2 / 8) / peak;
     gap[n++] = std::sqrt(sum2 / 8) / peak;
     fmt::print("oscillating sphere, h = D/{:.0f}: kinematic within {:.4f} of the added-mass force's amplitude; closure "
-               "rms {:.4f} of the direct force's peak\n",
-               1 / h, worst_kin, gap[n - 1]);
+               "rms {:.4f} of the direct force's peak, {:.4f} against the direct force off the forced faces\n",
+               1 / h, worst_kin, gap[n - 1], std::sqrt(free2 / 8) / peak);
   }
   EXPECT_LT(kin[1], 0.02);
   EXPECT_LT(kin[1], kin[0]);
-  EXPECT_LT(gap[1], gap[0]);
+  EXPECT_LT(gap[1], 0.2);
+  EXPECT_GT(gap[0] / gap[1], 1.25);
+  // Against the direct force off the forced faces (the pressure there carries the forcing's error): rms 5.2 % and
+  // 3.0 % of the peak. Asserted: below 4 % on D/12 and falling.
+  EXPECT_LT(free_gap[1], 0.04);
+  EXPECT_LT(free_gap[1], free_gap[0]);
 }
 
 }  // namespace

@@ -128,6 +128,7 @@ TEST(FpmRun, PartitionsTheFlappingMothAtItsCadence) {
     EXPECT_EQ(line, fpm_csv_row(res.fpm_rows[n]));
     const FpmRow back = parse_fpm_csv_row(line, res.fpm_regions.size());
     EXPECT_EQ(back.kinematic, res.fpm_rows[n].kinematic);
+    EXPECT_EQ(back.pressure_forced, res.fpm_rows[n].pressure_forced);
     ++n;
   }
   EXPECT_EQ(n, res.fpm_rows.size());
