@@ -169,6 +169,7 @@ std::vector<MechanismSplit> split_by_mechanism(const DerivativeResult& d, const 
       m.outer = nd(ns::PartitionMeans::outer);
       m.run_pressure = nd(ns::PartitionMeans::run_pressure);
       m.friction = nd(ns::PartitionMeans::run_friction);
+      m.pressure_forced = nd(ns::PartitionMeans::pressure_forced);
       out.push_back(m);
     }
   }
@@ -538,7 +539,8 @@ nlohmann::json cfd_study_json(const CfdStudy& s) {
     by_mechanism.push_back({{"derivative", derivative_name(m.row, m.column)}, {"total", m.total},
                             {"run_pressure", m.run_pressure}, {"run_friction", m.friction}, {"pressure", m.pressure},
                             {"added_mass", m.added_mass()}, {"centripetal", m.centripetal}, {"vortex", m.vortex},
-                            {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()}});
+                            {"viscous", m.viscous}, {"outer", m.outer}, {"sum", m.sum()},
+                            {"pressure_forced", m.pressure_forced}});
   json stages = json::array();
   for (const auto& st : s.stages) stages.push_back({{"stage", st.name}, {"wall_s", st.seconds}, {"cfd_runs", st.runs}});
   return {{"grid", {{"cells", s.cells}, {"cells_per_mean_chord", s.plan.chord_cells},
@@ -680,17 +682,19 @@ std::string cfd_study_markdown(const CfdStudy& s) {
     m += "\nVelocity derivatives split by mechanism (force partitioning of the same runs; non-dimensional as the "
          "table): the table's value (the run's loads at every step), the run's pressure and skin-friction parts at the "
          "partition's samples, the cut-cell pressure load the parts should sum to, its parts, their sum and the "
-         "closure gap (sum minus cut-cell pressure). The rate columns are not split: their grid turns with the body, "
+         "closure gap (sum minus cut-cell pressure) with the cut-cell pressure on the faces the immersed boundary "
+         "forces, which no part accounts for. The rate columns are not split: their grid turns with the body, "
          "where the partition does not hold. Kinematic parts of velocity derivatives vanish in theory (the parts move "
          "in the body's frame as in the hover).\n\n"
          "| derivative | table | run's pressure | skin friction | cut-cell pressure | added mass | CAR "
-         "| vortex-induced | viscous | outer | sum | closure gap |\n"
-         "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+         "| vortex-induced | viscous | outer | sum | closure gap | on the forced faces |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& b : s.by_mechanism)
       m += fmt::format("| {} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} | "
-                       "{:+.4f} | {:+.4f} | {:+.4f} |\n",
+                       "{:+.4f} | {:+.4f} | {:+.4f} | {:+.4f} |\n",
                        derivative_name(b.row, b.column), b.total, b.run_pressure, b.friction, b.pressure,
-                       b.added_mass(), b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure);
+                       b.added_mass(), b.centripetal, b.vortex, b.viscous, b.outer, b.sum(), b.sum() - b.pressure,
+                       b.pressure_forced);
   }
   for (const auto* f : {&s.floquet_longitudinal, &s.floquet_lateral})
     if (*f) m += floquet_markdown(**f, "");

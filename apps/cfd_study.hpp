@@ -26,6 +26,7 @@ struct MechanismSplit {
   int row = 0, column = 0;  // 0 .. 5: X Y Z L M N; u v w
   double total = 0, pressure = 0, kinematic = 0, centripetal = 0, vortex = 0, viscous = 0, outer = 0;
   double run_pressure = 0, friction = 0;
+  double pressure_forced = 0;  // the share of pressure on the faces the immersed boundary forces
   double added_mass() const { return kinematic - centripetal; }
   double sum() const { return kinematic + vortex + viscous + outer; }
 };

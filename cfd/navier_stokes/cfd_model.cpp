@@ -186,6 +186,7 @@ PartitionMeans partition_means(const fpm::FpmObserver& obs, double from_s, doubl
     v[PartitionMeans::outer] += r.outer;
     v[PartitionMeans::run_pressure] += r.solver_pressure;
     v[PartitionMeans::run_friction] += r.solver_viscous;
+    v[PartitionMeans::pressure_forced] += r.pressure_forced;
     if (std::find(times.begin(), times.end(), r.time) == times.end()) times.push_back(r.time);
   }
   if (times.empty()) throw SolveError("cfd model: a wingbeat without force-partition samples");
@@ -206,10 +207,16 @@ PartitionMeans combine(const PartitionMeans& a, const PartitionMeans& b, double 
 nlohmann::json partition_json(const PartitionMeans& m) {
   nlohmann::json names = nlohmann::json::array();
   for (int t = 0; t < PartitionMeans::terms; ++t) names.push_back(PartitionMeans::term_name(t));
-  return {{"components", m.components}, {"terms", names}, {"values", m.values}};
+  return {{"definition", PartitionMeans::definition},
+          {"components", m.components},
+          {"terms", names},
+          {"values", m.values}};
 }
 
-PartitionMeans partition_from(const nlohmann::json& j) {
+// A cached partition, or none where it was cached under another definition (its run's split by mechanism is then
+// left out, as for a run without partitioning).
+std::optional<PartitionMeans> partition_from(const nlohmann::json& j) {
+  if (j.value("definition", 1) != PartitionMeans::definition) return std::nullopt;
   PartitionMeans m;
   m.components = j.at("components").get<std::vector<int>>();
   m.values = j.at("values").get<std::vector<std::array<double, PartitionMeans::terms>>>();
@@ -343,8 +350,8 @@ struct PartialRun {
 }  // namespace
 
 const char* PartitionMeans::term_name(int t) {
-  static const char* names[terms] = {"pressure", "kinematic",    "centripetal", "vortex",
-                                     "viscous",  "outer",        "run_pressure", "run_friction"};
+  static const char* names[terms] = {"pressure", "kinematic", "centripetal",  "vortex",         "viscous",
+                                     "outer",    "run_pressure", "run_friction", "pressure_forced"};
   return t >= 0 && t < terms ? names[t] : "?";
 }
 

@@ -40,8 +40,14 @@ namespace flapstab::ns {
 // N, N m), the cut-cell pressure load the parts should sum to, the parts, and at the same samples the run's own
 // pressure and skin-friction loads (its forces.csv).
 struct PartitionMeans {
-  // centripetal: the CAR, part of kinematic
-  enum Term { pressure, kinematic, centripetal, vortex, viscous, outer, run_pressure, run_friction, terms };
+  // centripetal: the CAR, part of kinematic; pressure_forced: the share of pressure on the faces the immersed
+  // boundary forces (fpm::PartPartition)
+  enum Term {
+    pressure, kinematic, centripetal, vortex, viscous, outer, run_pressure, run_friction, pressure_forced, terms
+  };
+  // The partition's definition, kept with a cached partition: one cached under another (an earlier flapstab's, whose
+  // viscous part summed the forced faces too) is not reused.
+  static constexpr int definition = 2;
   static const char* term_name(int t);
   std::vector<int> components;
   std::vector<std::array<double, terms>> values;  // one row per component

@@ -870,15 +870,18 @@ TEST(CfdCli, HelpDescribesTheOptions) {
 struct DerivativesRun {
   int rc = -1;
   std::string out, err;
+  std::string dir;  // the output directory (its cfd_runs: the run cache)
   nlohmann::json json;
 };
-DerivativesRun run_derivatives(const std::string& text, const std::string& name) {
+// `fresh`: from an empty output directory (otherwise its run cache is kept)
+DerivativesRun run_derivatives(const std::string& text, const std::string& name, bool fresh = true) {
   const std::string path = write_temp("cfdcli_" + name + ".toml", text);
   const fs::path dir = fs::path(path).parent_path() / ("cfdcli_" + name + "_dir");
-  fs::remove_all(dir);
+  if (fresh) fs::remove_all(dir);
   const std::string outfile = write_temp("cfd_" + name + "_stdout.txt", "");
   const std::string errfile = write_temp("cfd_" + name + "_stderr.txt", "");
   DerivativesRun r;
+  r.dir = dir.string();
   r.rc = WEXITSTATUS(std::system((std::string(FLAPSTAB_BINARY) + " derivatives " + path + " -o " + dir.string() +
                                   " > " + outfile + " 2> " + errfile).c_str()));
   auto slurp = [](const std::string& f) {
@@ -921,6 +924,30 @@ TEST(CfdCli, DerivativesWithForcePartitioningAreSplitByMechanism) {
   ASSERT_NE(at, std::string::npos) << out;
   EXPECT_NE(out.find("| Mu |", at), std::string::npos) << out;
   EXPECT_EQ(out.find("| Mq |", at), std::string::npos) << "the rate column is not split: " << out;
+  EXPECT_NE(out.find("on the forced faces", at), std::string::npos) << out;
+  for (const auto& m : split) EXPECT_TRUE(std::isfinite(m.at("pressure_forced").get<double>()));
+  // Partitions cached under another definition (an earlier flapstab's, without "definition") are not reused: the
+  // same command on the same cache, its runs reused, then leaves the split out instead of mixing definitions.
+  int stripped = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(r.dir) / "cfd_runs")) {
+    if (e.path().extension() != ".json") continue;
+    std::ifstream in(e.path());
+    nlohmann::json c = nlohmann::json::parse(in, nullptr, false);
+    if (c.is_discarded() || !c.contains("partition")) continue;
+    auto strip = [&](nlohmann::json& p) {
+      if (p.is_object() && p.contains("definition")) p.erase("definition"), ++stripped;
+    };
+    if (c["partition"].is_array())
+      for (auto& p : c["partition"]) strip(p);
+    else
+      strip(c["partition"]);
+    std::ofstream(e.path()) << c.dump(1) << "\n";
+  }
+  EXPECT_GT(stripped, 0);
+  const DerivativesRun again = run_derivatives(text, "split", false);
+  ASSERT_EQ(again.rc, 0) << again.err;
+  EXPECT_EQ(again.json.at("derivatives").at("nondimensional"), j.at("derivatives").at("nondimensional"));
+  EXPECT_TRUE(again.json.at("cfd").at("derivatives_by_mechanism").empty()) << again.out;
 }
 
 // [derivatives.pitch_oscillation] in a CFD study: the oscillation keeps each step's difference from the continued
