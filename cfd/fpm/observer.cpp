@@ -167,7 +167,9 @@ void FpmObserver::keep_earlier(const std::string& file, long step) {
     if (number == 1) {
       if (line != header)
         throw InputError(file, "line 1", "other columns than this run's [aero.cfd.fpm] writes",
-                         "the header " + header + " (the interrupted run's settings)");
+                         "the header " + header +
+                             " (the interrupted run's settings; an fpm.csv written by a flapstab from before "
+                             "2026-12-07 lacks its pressure_forced column and cannot be continued)");
       continue;
     }
     FpmRow r;
