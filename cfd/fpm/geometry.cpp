@@ -117,6 +117,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     // Planes in parallel; each keeps its solid shares, joined in plane order afterwards (the same list as serially).
     const int planes = s.nz + (d == 2);
     std::vector<std::vector<FaceSolid>> plane_solids(std::size_t(planes) + 1);
+    std::vector<std::vector<FluidGeometry::Face>> plane_forced(std::size_t(planes) + 1);
     std::size_t sampled = 0;
 #pragma omp parallel reduction(+ : sampled)
     {
@@ -125,6 +126,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
 #pragma omp for schedule(dynamic, 1)
       for (int k = 1; k <= planes; ++k) {
         std::vector<FaceSolid>& mine = plane_solids[std::size_t(k)];
+        std::vector<FluidGeometry::Face>& mine_forced = plane_forced[std::size_t(k)];
         for (int j = 1; j <= s.ny + (d == 1); ++j)
           for (int i = 1; i <= s.nx + (d == 0); ++i) {
             const int I[3] = {i, j, k};
@@ -146,9 +148,11 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
             centre[f] = af.xc[std::size_t(I[f])];
             const double reach = 0.5 * std::hypot(we, wf);
             const auto [v, who] = lowest(level, parts, centre, h);
-            if (v < h) forced[std::size_t(s(i, j, k))] = 1;  // the forcing's solid or band face
+            const bool forced_face = v < h;  // the forcing's solid or band face
+            if (forced_face) forced[std::size_t(s(i, j, k))] = 1;
             if (v > reach) {
               ap(i, j, k) = 1;
+              if (forced_face) mine_forced.push_back({d, {i, j, k}});
               continue;
             }
             if (v < -reach) {
@@ -174,6 +178,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
               }
             const double n2 = double(samples) * samples;
             ap(i, j, k) = fluid / n2;
+            if (forced_face && fluid > 0) mine_forced.push_back({d, {i, j, k}});
             for (int p = 0; p < parts; ++p)
               if (count[std::size_t(p)] > 0)
                 mine.push_back({d, {i, j, k}, p, count[std::size_t(p)] / n2, sum[std::size_t(p)] / count[std::size_t(p)]});
@@ -182,6 +187,7 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     }
     G.sampled_faces += sampled;
     for (const auto& v : plane_solids) solids.insert(solids.end(), v.begin(), v.end());
+    for (const auto& v : plane_forced) G.forced_open.insert(G.forced_open.end(), v.begin(), v.end());
     if (ad.periodic) {
       copy_periodic_faces(ap, s, d);
       for (int k = 1; k <= s.nz; ++k)

@@ -46,6 +46,11 @@ struct FluidGeometry {
   // docs/theory/navier-stokes.md §7). The momentum equation does not hold there; the partition's viscous term leaves
   // them out (docs/theory/force-partitioning.md, "Discretisation").
   std::array<std::vector<char>, 3> forced;
+  struct Face {
+    int d;
+    int I[3];  // face index (the lower face of cell I along d)
+  };
+  std::vector<Face> forced_open;  // the forced faces with an open share, inside the domain (periodic: face 1 only)
   std::size_t sampled_faces = 0;       // faces the lattice sampled (near a surface)
   std::size_t pocket_cells = 0;        // fluid cells cut off from the domain's faces by the parts, taken out
   bool active(std::ptrdiff_t n) const { return volume_fraction[n] > 0; }

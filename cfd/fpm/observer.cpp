@@ -95,8 +95,8 @@ std::size_t fpm_estimated_bytes(const ns::CfdPlan& plan, const FpmSettings& sett
   const std::size_t potentials = settings.parts.size() * settings.components.size();
   // level 0 of the Laplacian (3 conductances, diagonal, x, b, r) and its coarse levels (< 1/7 more): 8; its CG work
   // fields 5; the geometry (3 apertures, volume fraction) 4; the Laplacian of u 3, Q 1, the transient centre fields 7
-  // and the right-hand side 1; owners and region labels (4 bytes each) 1
-  return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1) * field;
+  // and the right-hand side 1; owners and region labels (4 bytes each) 1; the forced-face flags (3 bytes) 1
+  return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1 + 1) * field;
 }
 
 void check_fpm_memory(const ns::CfdPlan& plan, const FpmSettings& settings, const std::string& case_path,

@@ -308,22 +308,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
           // reconstructed profile and the rigid velocity inside the part, about mu du/dn per unit area, which does not
           // vanish with the grid; the momentum equation it stands for does not hold there (direct forcing replaces it).
           if (beta <= 0 || forced_d[std::size_t(s(ii, j, kk))]) continue;
-          int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
-          ++A[d];
-          --B[d];
-          const std::size_t F = std::size_t(I[d]);
-          double lap = ((ud(A[0], A[1], A[2]) - ud(ii, j, kk)) * ad.idc[F] -
-                        (ud(ii, j, kk) - ud(B[0], B[1], B[2])) * ad.idc[F - 1]) * ad.idf[F];
-          for (int a : {e, h}) {
-            const ns::Axis& aa = g.axis[std::size_t(a)];
-            int Pp[3] = {ii, j, kk}, Mm[3] = {ii, j, kk};
-            ++Pp[a];
-            --Mm[a];
-            const std::size_t J = std::size_t(I[a]);
-            lap += ((ud(Pp[0], Pp[1], Pp[2]) - ud(ii, j, kk)) * aa.idf[J + 1] -
-                    (ud(ii, j, kk) - ud(Mm[0], Mm[1], Mm[2])) * aa.idf[J]) * aa.idc[J];
-          }
-          w(ii, j, kk) = lap * beta * area;
+          w(ii, j, kk) = face_laplacian(g, ud, d, ii, j, kk) * beta * area;
         }
   }
 
@@ -334,23 +319,12 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     double weight;
   };
   std::vector<ForcedFace> forced_faces;
-  for (int d = 0; d < 3; ++d) {
-    const ns::Axis& ad = g.axis[std::size_t(d)];
-    const int e = (d + 1) % 3, h = (d + 2) % 3;
-    const std::ptrdiff_t stride = d == 0 ? 1 : d == 1 ? s.sy : s.sz;
-    const std::vector<char>& forced_d = o.forced[std::size_t(d)];
-    for (int kk = 1; kk <= s.nz; ++kk)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int ii = 1; ii <= s.nx; ++ii) {
-          const std::ptrdiff_t n = s(ii, j, kk);
-          if (!forced_d[std::size_t(n)]) continue;
-          const int I[3] = {ii, j, kk};
-          const double beta = o.aperture[std::size_t(d)][n];
-          if (beta <= 0 || (!ad.periodic && I[d] == 1)) continue;
-          const double area =
-              g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
-          forced_faces.push_back({n, stride, beta * area * ad.idf[std::size_t(I[d])] * (p[n] - p[n - stride])});
-        }
+  for (const FluidGeometry::Face& f : o.forced_open) {
+    const int e = (f.d + 1) % 3, h = (f.d + 2) % 3;
+    const std::ptrdiff_t n = s(f.I[0], f.I[1], f.I[2]), stride = f.d == 0 ? 1 : f.d == 1 ? s.sy : s.sz;
+    const double area = g.axis[std::size_t(e)].dc[std::size_t(f.I[e])] * g.axis[std::size_t(h)].dc[std::size_t(f.I[h])];
+    const double a_f = o.aperture[std::size_t(f.d)][n] * area * g.axis[std::size_t(f.d)].idf[std::size_t(f.I[f.d])];
+    forced_faces.push_back({n, stride, a_f * (p[n] - p[n - stride])});
   }
 
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
