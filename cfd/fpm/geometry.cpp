@@ -64,7 +64,7 @@ void copy_periodic_faces(Field& f, const Shape& s, int d) {
 }
 
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
-                             int samples) {
+                             int samples, FpmBody body) {
   const Shape s = g.shape();
   if (owners.size() != s.cells())
     throw std::invalid_argument("force partitioning: cell owners of " + std::to_string(owners.size()) +
@@ -150,6 +150,11 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
             const auto [v, who] = lowest(level, parts, centre, h);
             const bool forced_face = v < h;  // the forcing's solid or band face
             if (forced_face) forced[std::size_t(s(i, j, k))] = 1;
+            if (forced_face && body == FpmBody::forced_region) {  // closed whole; its surface piece at the centre
+              ap(i, j, k) = 0;
+              mine.push_back({d, {i, j, k}, who, 1.0, centre});
+              continue;
+            }
             if (v > reach) {
               ap(i, j, k) = 1;
               if (forced_face) mine_forced.push_back({d, {i, j, k}});

@@ -61,8 +61,14 @@ struct FluidGeometry {
 // Along a periodic axis d face n+1 is face 1: copies the values of faces 1 of a face field to faces n+1.
 void copy_periodic_faces(Field& f, const Shape& s, int d);
 
+// Which region the influence potentials treat as the parts (docs/theory/force-partitioning.md, "The partition's
+// body"). surface: the parts as their level sets give them (cut-cell apertures from the m x m face lattice);
+// forced_region: the parts widened to every face the immersed boundary forces (lowest level set at the face centre
+// below the local width h), closed whole, so that the momentum equation holds on every open face.
+enum class FpmBody { surface, forced_region };
+
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
-                             int samples = 4);
+                             int samples = 4, FpmBody body = FpmBody::surface);
 
 // The cell owners for an analytic level function (every cell centre evaluated), for tests and small grids.
 std::vector<int> owners_of(const Grid& g, int parts, const LevelFunction& level);

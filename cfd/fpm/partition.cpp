@@ -90,7 +90,7 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
     throw std::invalid_argument("force partitioning: the power potential needs the states of the " +
                                 std::to_string(parts) + " parts");
   const Grid& g = *grid_;
-  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples));
+  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples, opt_.body));
   const FluidGeometry& o = *geometry_;
   {
     auto next = std::make_unique<NeumannLaplacian>(g, o);

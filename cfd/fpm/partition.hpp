@@ -87,6 +87,7 @@ struct FpmOptions {
   Vec3 moment_point = Vec3::Zero();  // x0 of the moment potentials (grid axes)
   std::vector<int> components{0, 1, 2, 3, 4, 5};  // which of F_x .. M_z to partition (the rest stay zero)
   int face_samples = 4;  // m x m points per face near a surface for the cut-cell apertures
+  FpmBody body = FpmBody::surface;  // the region the potentials treat as the parts (fluid_geometry)
   // Also the power potential of each part: d phi/dn = v . n with the part's rigid velocity v at the update (its
   // partition is the rate of work by mechanism, PartPartition::power_*). Needs the part states in update().
   bool power = false;

@@ -180,6 +180,46 @@ TEST(FpmGeometry, ForcedFacesAreThoseWithinAWidthOfTheSurface) {
   EXPECT_GT(flagged, open);  // the solid faces inside the surface are forced and closed
 }
 
+// With the forced region as the potentials' body (FpmBody::forced_region) the same sphere's forced faces are all
+// closed, every face the surface body leaves open outside them stays open, the parts' surface pieces close (their
+// areas sum to zero: the Neumann data balance) and the body is the surface body widened by about h: its volume lies
+// between the spheres of radius R + h/2 and R + 3h/2 (the forced faces reach h beyond R; cells count as the body's when
+// every face is closed, so the staircase sits between).
+TEST(FpmGeometry, ForcedRegionBodyClosesEveryForcedFace) {
+  const double R = 0.5, h = R / 6;
+  const Grid g = sphere_grid(h, -2, 2, 0.8);
+  const auto level = spheres(R);
+  const auto owners = fpm::owners_of(g, 1, level);
+  const fpm::FluidGeometry o = fpm::fluid_geometry(g, 1, level, owners);
+  const fpm::FluidGeometry w = fpm::fluid_geometry(g, 1, level, owners, 4, fpm::FpmBody::forced_region);
+  const Shape s = g.shape();
+  EXPECT_TRUE(w.forced_open.empty());
+  std::size_t closed = 0;
+  for (int d = 0; d < 3; ++d)
+    for (std::size_t n = 0; n < s.size(); ++n) {
+      EXPECT_EQ(w.forced[std::size_t(d)][n], o.forced[std::size_t(d)][n]);
+      if (w.forced[std::size_t(d)][n]) {
+        EXPECT_EQ(w.aperture[std::size_t(d)][std::ptrdiff_t(n)], 0.0);
+        ++closed;
+      } else {
+        EXPECT_EQ(w.aperture[std::size_t(d)][std::ptrdiff_t(n)], o.aperture[std::size_t(d)][std::ptrdiff_t(n)]);
+      }
+    }
+  EXPECT_GT(closed, 1000u);
+  Vec3 area = Vec3::Zero(), scale = Vec3::Zero();
+  for (const auto& c : w.cuts) area += c.area, scale += c.area.cwiseAbs();
+  EXPECT_LT(area.norm(), 1e-12 * scale.norm());
+  double solid = 0;
+  for (int k = 1; k <= s.nz; ++k)
+    for (int j = 1; j <= s.ny; ++j)
+      for (int i = 1; i <= s.nx; ++i) solid += (1 - w.volume_fraction(i, j, k)) * g.volume(i, j, k);
+  const auto ball = [](double r) { return 4.0 / 3.0 * pi * r * r * r; };
+  fmt::print("forced-region body: volume {:.5f} = that of a sphere of radius R + {:.3f} h\n", solid,
+             (std::cbrt(solid / (4.0 / 3.0 * pi)) - R) / h);
+  EXPECT_GT(solid, ball(R + 0.5 * h));
+  EXPECT_LT(solid, ball(R + 1.5 * h));
+}
+
 TEST(FpmPotential, FluidCutOffInsideAShellIsLeftOut) {
   const double R = 0.5, V = 4.0 / 3.0 * pi * R * R * R, h = R / 6;
   const Grid g = sphere_grid(h, -4, 4, 0.8);
@@ -456,17 +496,25 @@ TEST(FpmPartition, SpongeLayerForceIsInTheOuterPart) {
 // closure gap) and with the immersed boundary's own pressure drag (surface integral, momentum exchange).
 TEST(FpmPartition, SteadySphereAtRe100Closes) {
   const double q = 0.5 * pi / 4;  // rho U^2 / 2 x frontal area, rho = U = D = 1
-  double gap[2];
+  double gap[2], region_gap[2], region_drag[2];
   int n = 0;
   for (double h : {1.0 / 8, 1.0 / 12}) {
     testing::SphereInStream flow(h, 1.1, 12);
     while (flow.solver.time() + flow.solver.stable_dt() < 8) flow.solver.step();
     ForcePartition f(flow.grid, {.components = {0, 1, 2}});
+    ForcePartition fr(flow.grid, {.components = {0, 1, 2}, .body = fpm::FpmBody::forced_region});
     f.record_boundary(flow.solver);  // d u_n / dt on the domain's faces over the last step
+    fr.record_boundary(flow.solver);
     flow.solver.step();
     const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
     f.update(flow.ib, states);
+    fr.update(flow.ib, states);
     const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
+    const fpm::PartPartition R = fr.partition(flow.solver, states, 1.0)[0];
+    print("  the same with the forced region as the body", R, 0, q);
+    EXPECT_EQ(R.pressure_forced[0], 0.0);  // no forced face is open
+    region_gap[n] = std::abs(R.sum()[0] / R.pressure[0] - 1);
+    region_drag[n] = R.pressure[0] / q;
     print(fmt::format("steady sphere Re 100, h = D/{:.0f}, C_D parts (t = {:.2f})", 1 / h, flow.solver.time()).c_str(),
           P, 0, q);
     const double surface = flow.ib.loads(flow.solver, Vec3::Zero())[0].pressure_force.x() / q,
@@ -490,6 +538,15 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
   // at Re 20 a gap of 31 % on every grid. Asserted: below 15 % on D/12 and falling at least 1.3-fold.
   EXPECT_LT(gap[1], 0.15);
   EXPECT_GT(gap[0] / gap[1], 1.3);
+  // The forced region as the potentials' body (FpmBody::forced_region: every forced face closed, so the momentum
+  // equation holds on every open face and no pressure is left on forced faces) does not close this flow: measured
+  // pressure C_D on that body 0.703 / 0.630, parts 0.816 / 0.783, gap 16 % / 24 %, growing. The likely cause (not
+  // measured): the identity then leaves out the convective term of the fluid on the body's boundary,
+  // rho oint phi n . (u . grad u) dS, which vanishes on a no-slip surface but not at the edge of the forcing band,
+  // where the fluid slides along (docs/theory/force-partitioning.md, "The forced region as the body"). Printed, not
+  // asserted.
+  fmt::print("  forced region as the body: pressure C_D {:.4f} (D/8), {:.4f} (D/12); closure gap {:.4f}, {:.4f}\n",
+             region_drag[0], region_drag[1], region_gap[0], region_gap[1]);
 }
 
 // The steady sphere's closure on a series of grids and two Reynolds numbers (a study, not run in CI; results in
@@ -581,20 +638,29 @@ TEST(FpmPartition, DISABLED_SteadySphereClosureStudy) {
 TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
   using Osc = testing::OscillatingSphere;
   const double V = 4.0 / 3.0 * pi * Osc::R * Osc::R * Osc::R, am = 0.5 * V, amp = am * Osc::u0 * Osc::omega;
-  double gap[2], kin[2], free_gap[2];
+  double gap[2], kin[2], free_gap[2], region_gap[2];
   int n = 0;
   for (double h : {1.0 / 8, 1.0 / 12}) {
     Osc flow(h, true, 12);
     ForcePartition f(flow.grid, {.components = {0}});
+    ForcePartition fr(flow.grid, {.components = {0}, .body = fpm::FpmBody::forced_region});
     const int N = flow.per_period, sample_every = N / 8;
-    double sum2 = 0, free2 = 0, peak = 0, worst_kin = 0;
+    double sum2 = 0, free2 = 0, peak = 0, worst_kin = 0, region2 = 0, region_peak = 0;
     for (int k = 1; k <= 3 * N; ++k) {
-      if (k > 2 * N && k % sample_every == 0) f.record_boundary(flow.solver);
+      if (k > 2 * N && k % sample_every == 0) f.record_boundary(flow.solver), fr.record_boundary(flow.solver);
       flow.solver.step();
       if (k <= 2 * N || k % sample_every != 0) continue;
       const std::vector<PartState> states{Osc::state(flow.solver.time())};
       f.update(flow.ib, states);
+      fr.update(flow.ib, states);
       const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
+      const fpm::PartPartition R = fr.partition(flow.solver, states, 1.0)[0];
+      region2 += std::pow(R.sum()[0] - R.pressure[0], 2);
+      region_peak = std::max(region_peak, std::abs(R.pressure[0]));
+      fmt::print("  forced region as the body: kinematic {:+.5f}, vortex {:+.5f}, viscous {:+.5f}, outer {:+.5f}; "
+                 "sum {:+.5f}, direct {:+.5f}\n",
+                 R.kinematic[0] / amp, R.vortex[0] / amp, R.viscous[0] / amp, R.outer[0] / amp, R.sum()[0] / amp,
+                 R.pressure[0] / amp);
       const double a = states[0].acceleration.x();
       worst_kin = std::max(worst_kin, std::abs(P.kinematic[0] + am * a) / amp);
       sum2 += std::pow(P.sum()[0] - P.pressure[0], 2);
@@ -606,6 +672,8 @@ TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
                  P.outer[0] / amp, P.sum()[0] / amp, P.pressure[0] / amp);
     }
     kin[n] = worst_kin;
+    region_gap[n] = std::sqrt(region2 / 8) / region_peak;
+    fmt::print("  forced region as the body: closure rms {:.4f} of its direct force's peak\n", region_gap[n]);
     free_gap[n] = std::sqrt(free2 / 8) / peak;
     gap[n++] = std::sqrt(sum2 / 8) / peak;
     fmt::print("oscillating sphere, h = D/{:.0f}: kinematic within {:.4f} of the added-mass force's amplitude; closure "
@@ -620,6 +688,13 @@ TEST(FpmPartition, OscillatingSphereAddedMassAndClosure) {
   // 3.0 % of the peak. Asserted: below 4 % on D/12 and falling.
   EXPECT_LT(free_gap[1], 0.04);
   EXPECT_LT(free_gap[1], free_gap[0]);
+  // With the forced region as the potentials' body (every forced face closed: nothing left on forced faces) the
+  // closure rms was measured at 9.3 % and 4.7 % of that body's peak pressure force: twice as small per 1.5-fold grid
+  // step (at Re 0.8 the boundary layer, R / delta = 2, spans several cells, so the fluid at the edge of the forcing
+  // band barely slides, unlike the steady sphere's at Re 100 above). Asserted: below 7 % on D/12 and falling at least
+  // 1.5-fold.
+  EXPECT_LT(region_gap[1], 0.07);
+  EXPECT_GT(region_gap[0] / region_gap[1], 1.5);
 }
 
 }  // namespace
