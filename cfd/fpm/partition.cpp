@@ -327,6 +327,59 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     forced_faces.push_back({n, stride, a_f * (p[n] - p[n - stride])});
   }
 
+  // With the forced region as the body: the fluid's acceleration du_d/dt + (u . grad u)_d on each closed forced face
+  // beside a fluid cell, times the face's area (the same for every potential). The fluid there slides along the body,
+  // so the kinematic term takes it instead of the parts' rigid accelerations (FpmOptions::body).
+  struct WallFace {
+    std::ptrdiff_t up, low;  // the fluid cells above and below the face along d (-1: none)
+    double weight;           // A (du_d/dt + (u . grad u)_d)
+  };
+  std::vector<WallFace> wall_faces;
+  if (opt_.body == FpmBody::forced_region) {
+    const bool rate = have_u_prev_ && t > t_prev_;
+    for (int d = 0; d < 3; ++d) {
+      const ns::Axis& ad = g.axis[std::size_t(d)];
+      const int e = (d + 1) % 3, h = (d + 2) % 3;
+      const Field& ud = u[d];
+      const std::ptrdiff_t stride = s.stride(d);
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            const int I[3] = {ii, j, kk};
+            if (I[d] == 1) continue;  // the domain's faces (and a periodic seam's, left out)
+            const std::ptrdiff_t n = s(ii, j, kk);
+            if (!o.forced[std::size_t(d)][std::size_t(n)]) continue;
+            const bool up = o.active(n), low = o.active(n - stride);
+            if (!up && !low) continue;
+            int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
+            ++A[d];
+            --B[d];
+            const std::size_t F = std::size_t(I[d]);
+            double acc = ud(ii, j, kk) * (ud(A[0], A[1], A[2]) - ud(B[0], B[1], B[2])) / (ad.xf[F + 1] - ad.xf[F - 1]);
+            for (int a : {e, h}) {
+              const ns::Axis& aa = g.axis[std::size_t(a)];
+              // u_a at the face: the a-faces of the cells on both sides; d u_d / d x_a centred
+              int U[3] = {ii, j, kk}, L[3] = {ii, j, kk};
+              --L[d];
+              int U1[3] = {U[0], U[1], U[2]}, L1[3] = {L[0], L[1], L[2]};
+              ++U1[a];
+              ++L1[a];
+              const double ua = 0.25 * (u[a](U[0], U[1], U[2]) + u[a](U1[0], U1[1], U1[2]) + u[a](L[0], L[1], L[2]) +
+                                        u[a](L1[0], L1[1], L1[2]));
+              int P[3] = {ii, j, kk}, M[3] = {ii, j, kk};
+              ++P[a];
+              --M[a];
+              acc += ua * (ud(P[0], P[1], P[2]) - ud(M[0], M[1], M[2])) /
+                     (aa.xc[std::size_t(P[a])] - aa.xc[std::size_t(M[a])]);
+            }
+            if (rate) acc += (ud(ii, j, kk) - u_prev_[d](ii, j, kk)) / (t - t_prev_);
+            const double area =
+                g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+            wall_faces.push_back({up ? n : -1, low ? n - stride : -1, area * acc});
+          }
+    }
+  }
+
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
   std::vector<double> vortex_weight(s.cells());
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
@@ -399,6 +452,12 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     double band = 0;
     for (const ForcedFace& f : forced_faces) band += f.weight * (phi[f.n] - phi[f.n - f.stride]);
     T.pressure_forced = rho * band;
+    if (opt_.body == FpmBody::forced_region) {  // the fluid's acceleration on the widened body's faces
+      double wall = 0;
+      for (const WallFace& f : wall_faces)
+        wall += f.weight * ((f.up >= 0 ? phi[f.up] : 0.0) - (f.low >= 0 ? phi[f.low] : 0.0));
+      T.kinematic = rho * wall;
+    }
     return T;
   };
 
@@ -442,6 +501,10 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     }
   }
   un_prev_ = std::move(un_now);
+  if (opt_.body == FpmBody::forced_region) {
+    u_prev_ = u;
+    have_u_prev_ = true;
+  }
   t_prev_ = t;
   have_prev_ = true;
   return out;
@@ -461,6 +524,10 @@ void ForcePartition::set_regions(std::vector<int> labels, int count) {
 
 void ForcePartition::record_boundary(const ns::Solver& solver) {
   un_prev_ = boundary_normal_velocities(*grid_, solver.velocity());
+  if (opt_.body == FpmBody::forced_region) {  // the fluid's du/dt on the widened body's faces at the next partition
+    u_prev_ = solver.velocity();
+    have_u_prev_ = true;
+  }
   t_prev_ = solver.time();
   have_prev_ = true;
 }

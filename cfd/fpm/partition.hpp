@@ -87,7 +87,11 @@ struct FpmOptions {
   Vec3 moment_point = Vec3::Zero();  // x0 of the moment potentials (grid axes)
   std::vector<int> components{0, 1, 2, 3, 4, 5};  // which of F_x .. M_z to partition (the rest stay zero)
   int face_samples = 4;  // m x m points per face near a surface for the cut-cell apertures
-  FpmBody body = FpmBody::surface;  // the region the potentials treat as the parts (fluid_geometry)
+  // The region the potentials treat as the parts (fluid_geometry). With FpmBody::forced_region the kinematic term is
+  // rho oint phi n . (du/dt + u . grad u) dS over the widened body's faces with the fluid's velocity there, which
+  // slides along the body (its du/dt from the velocity at record_boundary(), called the step before; none: left out);
+  // `centripetal` stays the rigid parts' centripetal acceleration reaction on those faces.
+  FpmBody body = FpmBody::surface;
   // Also the power potential of each part: d phi/dn = v . n with the part's rigid velocity v at the update (its
   // partition is the rate of work by mechanism, PartPartition::power_*). Needs the part states in update().
   bool power = false;
@@ -164,6 +168,8 @@ class ForcePartition {
   std::array<std::vector<double>, 6> un_prev_;
   double t_prev_ = 0;
   bool have_prev_ = false;
+  ns::VectorField u_prev_;  // the velocity at record_boundary() (forced-region body only)
+  bool have_u_prev_ = false;
 };
 
 }  // namespace flapstab::fpm
