@@ -3,6 +3,7 @@
 #include "apps/over_ranks.hpp"
 #include "apps/commands.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -88,7 +89,7 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
   }
   if (samples.empty()) return;  // F_z not partitioned or no wing
   std::vector<Series> series = {{"run's pressure lift (forces.csv)", {}, {}},
-                                {"cut-cell pressure lift", {}, {}},
+                                {"pressure lift on the partition's body (fpm.csv pressure)", {}, {}},
                                 {"cut-cell pressure lift off the forced faces (what the parts sum to)", {}, {},
                                  "lines dt 2"},
                                 {"sum of the parts", {}, {}, "lines dt 3"},
@@ -107,6 +108,9 @@ void plot_partition_history(const std::string& dir, const ns::CfdResult& r, bool
     }
   }
   if (le.empty()) series.erase(series.begin() + 7);
+  // with the forced region as the body no forced face is open: the curve would repeat the one above it
+  if (std::all_of(samples.begin(), samples.end(), [](const Sum& m) { return m.forced == 0; }))
+    series.erase(series.begin() + 2);
   LinePlot p;
   p.title = "flapstab cfd: force partition of the wings' lift";
   p.xlabel = "t / T (wingbeats)";

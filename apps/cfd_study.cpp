@@ -681,12 +681,13 @@ std::string cfd_study_markdown(const CfdStudy& s) {
   if (!s.by_mechanism.empty()) {
     m += "\nVelocity derivatives split by mechanism (force partitioning of the same runs; non-dimensional as the "
          "table): the table's value (the run's loads at every step), the run's pressure and skin-friction parts at the "
-         "partition's samples, the cut-cell pressure load the parts should sum to, its parts, their sum and the "
-         "closure gap (sum minus cut-cell pressure) with the cut-cell pressure on the faces the immersed boundary "
-         "forces, which no part accounts for. The rate columns are not split: their grid turns with the body, "
-         "where the partition does not hold. Kinematic parts of velocity derivatives vanish in theory (the parts move "
-         "in the body's frame as in the hover).\n\n"
-         "| derivative | table | run's pressure | skin friction | cut-cell pressure | added mass | CAR "
+         "partition's samples, the pressure load on the partition's body that the parts should sum to (the parts' "
+         "cut cells, or with [aero.cfd.fpm] body = \"forced-region\" the parts widened to the faces the immersed "
+         "boundary forces), its parts, their sum and the closure gap (sum minus that pressure) with the pressure on "
+         "the faces the immersed boundary forces, which no part accounts for (zero for the widened body). The rate "
+         "columns are not split: their grid turns with the body, where the partition does not hold. Kinematic parts "
+         "of velocity derivatives vanish in theory (the parts move in the body's frame as in the hover).\n\n"
+         "| derivative | table | run's pressure | skin friction | body's pressure | added mass | CAR "
          "| vortex-induced | viscous | outer | sum | closure gap | on the forced faces |\n"
          "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& b : s.by_mechanism)

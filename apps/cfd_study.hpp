@@ -20,7 +20,8 @@ namespace flapstab {
 
 // One CFD velocity derivative split by mechanism ([aero.cfd.fpm]): the central differences of the partition's window
 // means between the column's two runs, non-dimensional like the table. total: the table's value (the run's loads,
-// pressure and skin friction, every step); pressure: the cut-cell pressure load the parts should sum to; run_pressure,
+// pressure and skin friction, every step); pressure: the pressure load on the partition's body (its cut cells, or the
+// forced region) that the parts should sum to; run_pressure,
 // friction: the run's own pressure and skin-friction loads at the partition's samples.
 struct MechanismSplit {
   int row = 0, column = 0;  // 0 .. 5: X Y Z L M N; u v w

@@ -547,6 +547,7 @@ FpmSettings parse_fpm(Section s) {
   f.region_size_chords = s.positive_in("region_size_chords", f.region_size_chords, 0.05, 10, "a distance in mean chords");
   f.fields_per_cycle = s.integer_or("fields_per_cycle", f.fields_per_cycle, 0, 100000);
   f.tolerance = s.positive_in("tolerance", f.tolerance, 1e-12, 1e-2, "a relative residual");
+  f.body = s.string("body", false, f.body, {"surface", "forced-region"});
   s.reject_unknown();
   return f;
 }

@@ -40,6 +40,12 @@ struct FpmSettings {
   double region_size_chords = 1.0;  // how far the wing regions reach off the wing surface and beyond the tip (mean chords)
   int fields_per_cycle = 0;         // potential and vortex-force-density field outputs per wingbeat (0: none)
   double tolerance = 1e-4;          // potential solves: max residual / max right-hand side (the terms to ~1e-5)
+  // The region the influence potentials treat as the parts: "surface", the parts as their surfaces give them (cut
+  // cells; the pressure on the faces the immersed boundary forces is left over as pressure_forced), or
+  // "forced-region", the parts widened to every forced face, with the fluid's acceleration on that body's faces in
+  // the kinematic part (closes to within a few % where "surface" leaves ~half on the forced faces, but holds the
+  // added mass of a body about a cell larger). docs/theory/force-partitioning.md, "The forced region as the body".
+  std::string body = "surface";
 };
 
 // [aero.cfd]: the Navier-Stokes immersed-boundary run (cfd/navier_stokes/run.hpp, docs/case-file.md).

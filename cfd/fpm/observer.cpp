@@ -95,8 +95,10 @@ std::size_t fpm_estimated_bytes(const ns::CfdPlan& plan, const FpmSettings& sett
   const std::size_t potentials = settings.parts.size() * settings.components.size();
   // level 0 of the Laplacian (3 conductances, diagonal, x, b, r) and its coarse levels (< 1/7 more): 8; its CG work
   // fields 5; the geometry (3 apertures, volume fraction) 4; the Laplacian of u 3, Q 1, the transient centre fields 7
-  // and the right-hand side 1; owners and region labels (4 bytes each) 1; the forced-face flags (3 bytes) 1
-  return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1 + 1) * field;
+  // and the right-hand side 1; owners and region labels (4 bytes each) 1; the forced-face flags (3 bytes) 1; with the
+  // forced region as the body the last step's velocity 3
+  const std::size_t previous_velocity = settings.body == "forced-region" ? 3 : 0;
+  return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1 + 1 + previous_velocity) * field;
 }
 
 void check_fpm_memory(const ns::CfdPlan& plan, const FpmSettings& settings, const std::string& case_path,
@@ -139,6 +141,7 @@ FpmObserver::FpmObserver(const ns::Simulation& sim, const FpmSettings& settings,
   rho_ = sim.plan().rho;
   FpmOptions opt;
   opt.rtol = settings.tolerance;
+  opt.body = settings.body == "forced-region" ? FpmBody::forced_region : FpmBody::surface;
   opt.components.clear();
   for (int k : components_)
     if (k < power_component) opt.components.push_back(k);
@@ -344,9 +347,13 @@ nlohmann::json FpmObserver::means(double from_s, double to_s, double period, dou
   j["region_size_m"] = region_size_;
   j["regions"] = region_names_;
   j["weight_N"] = weight;
+  j["body"] = settings_.body;
   j["units"] = "N for Fx Fy Fz, N m for Mx My Mz (about O), W for power; stability axes (z down: lift = -Fz)";
   j["terms"] = "pressure = kinematic + vortex + viscous + outer + pressure_forced (+ discretisation error), "
-               "pressure_forced = the share of pressure on the faces the immersed boundary forces; "
+               "pressure = the pressure force on the body (surface: the parts' cut cells; forced-region: the parts "
+               "widened to every face the immersed boundary forces), "
+               "pressure_forced = the share of pressure on the faces the immersed boundary forces (0 for "
+               "forced-region); "
                "kinematic = added_mass + "
                "centripetal (the centripetal acceleration reaction); solver_pressure, solver_viscous = the run's own "
                "loads (forces.csv)";
@@ -397,22 +404,38 @@ std::string FpmObserver::summary(double from_s, double to_s, double period) cons
   const double L = lift(m.sp + m.sv);
   auto pc = [&](double fz) { return L != 0 ? 100.0 * lift(fz) / L : 0.0; };
   const double closure = m.kinematic + m.vortex + m.viscous + m.outer - m.pressure;
+  const bool surface = settings_.body != "forced-region";
   std::string s = fmt::format(
       "  force partition of the wings' lift (-F_z), t = {:.4g} .. {:.4g} s: total {:.4g} N (pressure {:.4g} N, skin "
       "friction {:.4g} N)\n"
       "    kinematic {:.1f} % (added mass {:.1f} %, centripetal acceleration reaction {:.1f} %), vortex-induced {:.1f} %, "
-      "viscous {:.1f} %, outer boundary {:.1f} %, skin friction {:.1f} %\n"
-      "    closure: partition sum - cut-cell pressure force = {:.1f} % of the total; the cut-cell pressure on the "
-      "faces the immersed boundary forces, which no part accounts for (direct forcing replaces the momentum equation "
-      "there), gives {:.1f} %, and against the pressure on the other faces the parts sum to {:+.1f} %\n",
+      "viscous {:.1f} %, outer boundary {:.1f} %, skin friction {:.1f} %\n",
       from_s, to_s, L, lift(m.sp), lift(m.sv), pc(m.kinematic), pc(m.kinematic - m.centripetal), pc(m.centripetal),
-      pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv), pc(closure), pc(m.forced), pc(closure + m.forced));
-  if (m.pressure != 0 && std::abs(closure) > 0.1 * std::abs(m.pressure))
-    s += fmt::format("    warning: the parts sum to {:.0f} % of the cut-cell pressure lift, {:.0f} % of which lies on "
-                     "the forced faces: on this grid read the vortex-induced and viscous shares as what the velocity "
-                     "field implies, not as a split of the run's lift (docs/theory/force-partitioning.md, "
-                     "\"Closure, and where the gap lives\")\n",
-                     100 * (closure + m.pressure) / m.pressure, 100 * m.forced / m.pressure);
+      pc(m.vortex), pc(m.viscous), pc(m.outer), pc(m.sv));
+  if (surface)
+    s += fmt::format(
+        "    closure: partition sum - cut-cell pressure force = {:.1f} % of the total; the cut-cell pressure on the "
+        "faces the immersed boundary forces, which no part accounts for (direct forcing replaces the momentum equation "
+        "there), gives {:.1f} %, and against the pressure on the other faces the parts sum to {:+.1f} %\n",
+        pc(closure), pc(m.forced), pc(closure + m.forced));
+  else
+    s += fmt::format("    closure (body = \"forced-region\": the parts widened to the faces the immersed boundary "
+                     "forces): partition sum - pressure force on that body = {:.1f} % of the total, {:+.1f} % of that "
+                     "force\n",
+                     pc(closure), m.pressure != 0 ? 100 * closure / m.pressure : 0.0);
+  if (m.pressure != 0 && std::abs(closure) > 0.1 * std::abs(m.pressure)) {
+    if (surface)
+      s += fmt::format("    warning: the parts sum to {:.0f} % of the cut-cell pressure lift, {:.0f} % of which lies "
+                       "on the forced faces: on this grid read the vortex-induced and viscous shares as what the "
+                       "velocity field implies, not as a split of the run's lift (docs/theory/force-partitioning.md, "
+                       "\"Closure, and where the gap lives\")\n",
+                       100 * (closure + m.pressure) / m.pressure, 100 * m.forced / m.pressure);
+    else
+      s += fmt::format("    warning: the parts sum to {:.0f} % of the pressure lift on the widened body: on this grid "
+                       "the shares are not a split of it (docs/theory/force-partitioning.md, \"The forced region as "
+                       "the body\")\n",
+                       100 * (closure + m.pressure) / m.pressure);
+  }
   if (unconverged_ > 0)
     s += fmt::format("    warning: {} potential solves did not converge (tolerance {:g}); their samples are unreliable\n",
                      unconverged_, settings_.tolerance);

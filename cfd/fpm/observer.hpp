@@ -78,6 +78,7 @@ class FpmObserver final : public ns::StepObserver {
   const std::vector<FpmRow>& rows() const { return rows_; }  // the interrupted run's and this run's
   const std::vector<std::string>& region_names() const { return region_names_; }
   const std::vector<int>& components() const { return components_; }
+  const FpmSettings& settings() const { return settings_; }
   double seconds() const { return seconds_; }  // wall time spent partitioning in this run
   long samples() const { return samples_; }
   double mean_potential_iterations() const { return samples_ > 0 ? double(iterations_) / solves_ : 0; }

@@ -169,6 +169,7 @@ std::vector<CycleRecord> cycles_from(const nlohmann::json& a) {
 // are taken at step ends), summed over the partitioned parts; the load components only (not "power").
 PartitionMeans partition_means(const fpm::FpmObserver& obs, double from_s, double to_s, double dt) {
   PartitionMeans m;
+  m.body = obs.settings().body;
   for (int k : obs.components())
     if (k < fpm::power_component) m.components.push_back(k);
   m.values.assign(m.components.size(), {});
@@ -208,16 +209,18 @@ nlohmann::json partition_json(const PartitionMeans& m) {
   nlohmann::json names = nlohmann::json::array();
   for (int t = 0; t < PartitionMeans::terms; ++t) names.push_back(PartitionMeans::term_name(t));
   return {{"definition", PartitionMeans::definition},
+          {"body", m.body},
           {"components", m.components},
           {"terms", names},
           {"values", m.values}};
 }
 
-// A cached partition, or none where it was cached under another definition (its run's split by mechanism is then
-// left out, as for a run without partitioning).
-std::optional<PartitionMeans> partition_from(const nlohmann::json& j) {
-  if (j.value("definition", 1) != PartitionMeans::definition) return std::nullopt;
+// A cached partition, or none where it was cached under another definition or body (its run's split by mechanism is
+// then left out, as for a run without partitioning).
+std::optional<PartitionMeans> partition_from(const nlohmann::json& j, const std::string& body) {
+  if (j.value("definition", 1) != PartitionMeans::definition || j.value("body", "") != body) return std::nullopt;
   PartitionMeans m;
+  m.body = body;
   m.components = j.at("components").get<std::vector<int>>();
   m.values = j.at("values").get<std::vector<std::array<double, PartitionMeans::terms>>>();
   if (m.values.size() != m.components.size()) throw SolveError("cfd model: a damaged force partition in the run cache");
@@ -232,12 +235,13 @@ nlohmann::json partitions_json(const std::vector<std::optional<PartitionMeans>>&
 }
 
 // `count` wingbeats from the "partition" array of a cache file (absent, short or null entries: not partitioned).
-std::vector<std::optional<PartitionMeans>> partitions_from(const nlohmann::json& j, std::size_t count) {
+std::vector<std::optional<PartitionMeans>> partitions_from(const nlohmann::json& j, std::size_t count,
+                                                           const std::string& body) {
   std::vector<std::optional<PartitionMeans>> v(count);
   if (!j.contains("partition")) return v;
   const auto& a = j.at("partition");
   for (std::size_t i = 0; i < count && i < a.size(); ++i)
-    if (!a[i].is_null()) v[i] = partition_from(a[i]);
+    if (!a[i].is_null()) v[i] = partition_from(a[i], body);
   return v;
 }
 
@@ -517,7 +521,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
       if (const auto r = ranks.json(file("reference.json"), st->key)) {
         st->ref_cycles = cycles_from(r->at("cycles"));
         for (const auto& c : r->at("rows")) st->ref_rows.push_back(rows_from(c));
-        st->ref_partition = partitions_from(*r, st->ref_cycles.size());
+        st->ref_partition = partitions_from(*r, st->ref_cycles.size(), case_.aero.cfd.fpm.body);
         st->ref_on_file = true;
       }
     }
@@ -571,7 +575,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
     rec.reused = true;
     diff = rows_from(cached->at("difference"));
     if (cached->contains("partition") && !cached->at("partition").is_null())
-      rec.partition = partition_from(cached->at("partition"));
+      rec.partition = partition_from(cached->at("partition"), case_.aero.cfd.fpm.body);
     say(fmt::format("cfd model: run {} ({}) reused from {}\n", number, label, run_file));
   } else {
     Case c = case_;
@@ -622,7 +626,7 @@ WrenchHistory CfdModel::run(const Insect& insect, const Kinematics& kin, const B
                                                         "the run starts again from the hover")) {
       sim.restore(part->first);
       for (const auto& h : part->second.at("history")) history.push_back(rows_from(h));
-      phist = partitions_from(part->second, history.size());
+      phist = partitions_from(part->second, history.size(), case_.aero.cfd.fpm.body);
       rec.cycles = cycles_from(part->second.at("cycles"));
       earlier_seconds = part->second.at("wall_s").get<double>();
       resumed = true;
@@ -747,7 +751,7 @@ void CfdModel::continue_reference(int k) const {
       st.ref_cycles = cycles_from(r->at("cycles"));
       st.ref_rows.clear();
       for (const auto& c : r->at("rows")) st.ref_rows.push_back(rows_from(c));
-      st.ref_partition = partitions_from(*r, st.ref_cycles.size());
+      st.ref_partition = partitions_from(*r, st.ref_cycles.size(), case_.aero.cfd.fpm.body);
       st.ref_sim.reset();
       st.ref_fpm.reset();
       st.ref_on_file = true;

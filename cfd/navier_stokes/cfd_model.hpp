@@ -45,10 +45,12 @@ struct PartitionMeans {
   enum Term {
     pressure, kinematic, centripetal, vortex, viscous, outer, run_pressure, run_friction, pressure_forced, terms
   };
-  // The partition's definition, kept with a cached partition: one cached under another (an earlier flapstab's, whose
-  // viscous part summed the forced faces too) is not reused.
-  static constexpr int definition = 2;
+  // The partition's definition, kept with a cached partition: one cached under another (an earlier flapstab's: 1,
+  // whose viscous part summed the forced faces too; 2, before [aero.cfd.fpm] body) or with another body is not
+  // reused.
+  static constexpr int definition = 3;
   static const char* term_name(int t);
+  std::string body = "surface";  // [aero.cfd.fpm] body
   std::vector<int> components;
   std::vector<std::array<double, terms>> values;  // one row per component
 };

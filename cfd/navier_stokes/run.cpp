@@ -136,10 +136,12 @@ void write_run_json(const std::string& path, const Case& c, const std::string& h
         {"rows", "one per force-partitioning sample, part and component; one header row"},
         {"axes", "as forces.csv: hover stability axes S, moments about O"},
         {"units", "the row's unit column: N (Fx Fy Fz), N m (Mx My Mz), W (power: the part's work on the air)"},
-        {"columns", "pressure = the cut-cell pressure load the partition sums to; kinematic = added_mass + centripetal "
+        {"columns", "pressure = the pressure load on the partition's body (fpm \"body\") that the parts sum to; "
+                    "kinematic = added_mass + centripetal "
                     "(acceleration reaction); vortex, viscous, outer; sum = kinematic + vortex + viscous + outer; "
                     "solver_pressure, solver_viscous = the run's loads (forces.csv); pressure_forced = the share of "
-                    "pressure on the faces the immersed boundary forces, which no part accounts for; vortex.REGION = "
+                    "pressure on the faces the immersed boundary forces, which no part accounts for (0 for body = "
+                    "\"forced-region\"); vortex.REGION = "
                     "the vortex-induced part by region of the flow"}};
   }
   write_file_atomic(path, j.dump(2) + "\n");

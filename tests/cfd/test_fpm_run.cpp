@@ -63,6 +63,7 @@ TEST(FpmCase, DefaultsAndBadInput) {
   EXPECT_EQ(f.components, (std::vector<std::string>{"Fx", "Fz"}));
   EXPECT_EQ(f.parts, (std::vector<std::string>{"body", "right", "left"}));
   EXPECT_EQ(f.regions, (std::vector<std::string>{"leading-edge", "trailing-edge", "tip"}));
+  EXPECT_EQ(f.body, "surface");
   EXPECT_FALSE(load_case(testing::write_temp("fpm_off.toml", testing::replace(fpm_case_text(""), "[aero.cfd.fpm]\n",
                                                                               "[aero.cfd.fpm]\nenabled = false\n")))
                    .aero.cfd.fpm.enabled);
@@ -83,7 +84,9 @@ TEST(FpmCase, DefaultsAndBadInput) {
                                        {"samples_per_cycle = 0", "aero.cfd.fpm.samples_per_cycle"},
                                        {"region_size_chords = -1", "aero.cfd.fpm.region_size_chords"},
                                        {"tolerance = 0.5", "aero.cfd.fpm.tolerance"},
-                                       {"cadence = 4", "aero.cfd.fpm.cadence"}}) {
+                                       {"cadence = 4", "aero.cfd.fpm.cadence"},
+                                       {"body = \"wing\"", "aero.cfd.fpm.body"},
+                                       {"body = 1", "aero.cfd.fpm.body"}}) {
     const std::string path = testing::write_temp("fpm_bad.toml", fpm_case_text(b.keys));
     testing::expect_input_error([&] { load_case(path); }, b.key, path);
   }
@@ -198,6 +201,43 @@ TEST(FpmRun, MemoryCheckCountsThePotentials) {
       testing::expect_input_error([&] { check_fpm_memory(plan, c.aero.cfd.fpm, c.path, run + fpm / 2); }, "aero.cfd.fpm");
   EXPECT_NE(m.find("6 potentials"), std::string::npos) << m;
   EXPECT_NO_THROW(check_fpm_memory(plan, c.aero.cfd.fpm, c.path, run + fpm));
+  FpmSettings widened = c.aero.cfd.fpm;
+  widened.body = "forced-region";  // keeps the last step's velocity
+  EXPECT_EQ(fpm_estimated_bytes(plan, widened) - fpm, 3 * ns::plan_grid(plan).shape().size() * sizeof(double));
+}
+
+// body = "forced-region" in a run: the partition's body is the parts widened to the faces the immersed boundary
+// forces, so no pressure is left on forced faces (pressure_forced 0 in every row), run.json names the body and the
+// run prints the closure against that body's pressure force. The surface body's run of the same case leaves pressure
+// on the forced faces. The widened body's accuracy is validated on spheres in test_fpm.cpp.
+TEST(FpmRun, ForcedRegionBodyLeavesNothingOnForcedFaces) {
+  const std::string keys = "samples_per_cycle = 12\ncomponents = [\"Fz\"]\nparts = [\"right\", \"left\"]\n";
+  const Case c = fpm_case("fpm_widened.toml", keys + "body = \"forced-region\"\n");
+  ns::CfdRunOptions o;
+  o.directory = fresh_dir("widened");
+  std::ostringstream log;
+  o.log = &log;
+  const ns::CfdResult res = run_cfd(c, c.kinematics, BodyMotion{}, o);
+  ASSERT_EQ(res.fpm_rows.size(), 12u * 2);
+  double peak = 0;
+  for (const FpmRow& r : res.fpm_rows) {
+    EXPECT_EQ(r.pressure_forced, 0.0);
+    EXPECT_TRUE(std::isfinite(r.kinematic));
+    peak = std::max(peak, std::abs(r.pressure));
+  }
+  EXPECT_GT(peak, 0);
+  const auto j = nlohmann::json::parse(read_text(o.directory + "/run.json"));
+  EXPECT_EQ(j["fpm"]["body"], "forced-region");
+  EXPECT_NE(log.str().find("body = \"forced-region\""), std::string::npos) << log.str();
+
+  const Case cs = fpm_case("fpm_cut.toml", keys);
+  ns::CfdRunOptions os = o;
+  os.directory = fresh_dir("cut");
+  const ns::CfdResult cut = run_cfd(cs, cs.kinematics, BodyMotion{}, os);
+  double forced = 0;
+  for (const FpmRow& r : cut.fpm_rows) forced = std::max(forced, std::abs(r.pressure_forced));
+  EXPECT_GT(forced, 0.0);
+  EXPECT_EQ(nlohmann::json::parse(read_text(os.directory + "/run.json"))["fpm"]["body"], "surface");
 }
 
 TEST(FpmRun, DryRunEstimatesTheCostAndWritesNothing) {
