@@ -558,7 +558,8 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
 // The direct pressure force equals sum over open faces of a_f (p_c - p_nb)(phi_c - phi_nb) exactly (the discrete
 // Green identity, docs/theory/force-partitioning.md). Printed beside the parts: that sum over the faces the immersed
 // boundary forces (where the momentum equation does not hold) and over the rest, and the viscous term the forced
-// faces would add if they were not left out (the MAC Laplacian there, as over the other open faces).
+// faces would add if they were not left out (the MAC Laplacian there, as over the other open faces). The line
+// "WIDENED" gives the same flow's partition with the forced region as the body (FpmBody::forced_region).
 TEST(FpmPartition, DISABLED_SteadySphereClosureStudy) {
   const double q = 0.5 * pi / 4;
   const double re = std::getenv("FLAPSTAB_FPM_RE") ? std::atof(std::getenv("FLAPSTAB_FPM_RE")) : 100.0;
@@ -576,11 +577,18 @@ TEST(FpmPartition, DISABLED_SteadySphereClosureStudy) {
     testing::SphereInStream flow(1.0 / m, 1.1, std::max(12, 2 * m), m > 16, re);
     while (flow.solver.time() + flow.solver.stable_dt() < 8) flow.solver.step();
     ForcePartition f(flow.grid, {.components = {0}});
+    ForcePartition fw(flow.grid, {.components = {0}, .body = fpm::FpmBody::forced_region});
     f.record_boundary(flow.solver);
+    fw.record_boundary(flow.solver);
     flow.solver.step();
     const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
     f.update(flow.ib, states);
+    fw.update(flow.ib, states);
     const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
+    const fpm::PartPartition W = fw.partition(flow.solver, states, 1.0)[0];
+    fmt::print("WIDENED D/{}: direct {:.4f} sum {:.4f} gap {:+.4f}; kinematic {:+.4f} vortex {:+.4f} viscous {:+.4f}\n",
+               m, W.pressure[0] / q, W.sum()[0] / q, W.sum()[0] / W.pressure[0] - 1, W.kinematic[0] / q,
+               W.vortex[0] / q, W.viscous[0] / q);
     const Grid& g = flow.grid;
     const Shape s = g.shape();
     const fpm::FluidGeometry& o = f.geometry();
