@@ -489,6 +489,19 @@ TEST(FpmPartition, SpongeLayerForceIsInTheOuterPart) {
   EXPECT_GT(gap[0] / gap[1], 1.2);
 }
 
+// One more step of the steady sphere's flow, partitioned with the cut-cell body (a) and the widened one (b): both
+// keep the boundary velocities before the step (d u / dt over it), then solve their potentials and partition.
+std::pair<fpm::PartPartition, fpm::PartPartition> step_and_partition(testing::SphereInStream& flow, ForcePartition& a,
+                                                                     ForcePartition& b) {
+  a.record_boundary(flow.solver);
+  b.record_boundary(flow.solver);
+  flow.solver.step();
+  const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
+  a.update(flow.ib, states);
+  b.update(flow.ib, states);
+  return {a.partition(flow.solver, states, 1.0)[0], b.partition(flow.solver, states, 1.0)[0]};
+}
+
 // Closure on a steady flow: the sphere at Re = 100 (the immersed boundary's drag validation case,
 // tests/common/sphere_flow.hpp) at t = 8 D/U, past its start-up, on h = D/8 and D/12. The sphere does not move, so
 // the kinematic part vanishes and the pressure drag is the vortex-induced + viscous + outer parts; their sum is
@@ -503,14 +516,7 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
     while (flow.solver.time() + flow.solver.stable_dt() < 8) flow.solver.step();
     ForcePartition f(flow.grid, {.components = {0, 1, 2}});
     ForcePartition fr(flow.grid, {.components = {0, 1, 2}, .body = fpm::FpmBody::forced_region});
-    f.record_boundary(flow.solver);  // d u_n / dt on the domain's faces over the last step
-    fr.record_boundary(flow.solver);
-    flow.solver.step();
-    const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
-    f.update(flow.ib, states);
-    fr.update(flow.ib, states);
-    const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
-    const fpm::PartPartition R = fr.partition(flow.solver, states, 1.0)[0];
+    const auto [P, R] = step_and_partition(flow, f, fr);
     print("  the same with the forced region as the body", R, 0, q);
     EXPECT_EQ(R.pressure_forced[0], 0.0);  // no forced face is open
     region_gap[n] = std::abs(R.sum()[0] / R.pressure[0] - 1);
@@ -578,14 +584,7 @@ TEST(FpmPartition, DISABLED_SteadySphereClosureStudy) {
     while (flow.solver.time() + flow.solver.stable_dt() < 8) flow.solver.step();
     ForcePartition f(flow.grid, {.components = {0}});
     ForcePartition fw(flow.grid, {.components = {0}, .body = fpm::FpmBody::forced_region});
-    f.record_boundary(flow.solver);
-    fw.record_boundary(flow.solver);
-    flow.solver.step();
-    const std::vector<PartState> states{flow.ib.state(0, flow.solver.time())};
-    f.update(flow.ib, states);
-    fw.update(flow.ib, states);
-    const fpm::PartPartition P = f.partition(flow.solver, states, 1.0)[0];
-    const fpm::PartPartition W = fw.partition(flow.solver, states, 1.0)[0];
+    const auto [P, W] = step_and_partition(flow, f, fw);
     fmt::print("WIDENED D/{}: direct {:.4f} sum {:.4f} gap {:+.4f}; kinematic {:+.4f} vortex {:+.4f} viscous {:+.4f}\n",
                m, W.pressure[0] / q, W.sum()[0] / q, W.sum()[0] / W.pressure[0] - 1, W.kinematic[0] / q,
                W.vortex[0] / q, W.viscous[0] / q);
