@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include "cfd/navier_stokes/diagnostics.hpp"
+#include "cfd/navier_stokes/operators.hpp"
 
 namespace flapstab::fpm {
 
@@ -227,12 +228,15 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   const auto& outer = outer_;
   const Vec3& x0 = opt_.moment_point;
 
-  // Q at the cell centres (the solver's velocity, forced values inside the parts included)
-  q_ = ns::centre_fields(g, u).q;
+  const bool widened = opt_.body == FpmBody::forced_region;
+  // Q at the cell centres (the solver's velocity, forced values inside the parts included); with the forced region
+  // as the body, the solver's own discrete Q, below
+  if (!widened) q_ = ns::centre_fields(g, u).q;
   auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1); };
 
   // Du/Dt . n on the domain's faces next to fluid cells
   std::vector<double> dudt_n(outer.size(), 0.0);
+  std::vector<double> conv_n(outer.size(), 0.0);  // its convective part u . grad u . n
   const double t = solver.time();
   std::array<std::vector<double>, 6> un_now = boundary_normal_velocities(g, u);
   {
@@ -271,6 +275,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       const auto& prev = un_prev_[plane];
       const double dt_term =
           have_prev_ && t > t_prev_ && idx < prev.size() ? (un - prev[idx]) / (t - t_prev_) : 0.0;
+      conv_n[m] = conv * (f.side == 0 ? -1.0 : 1.0);
       dudt_n[m++] = (dt_term + conv) * (f.side == 0 ? -1.0 : 1.0);
     }
   }
@@ -327,57 +332,75 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     forced_faces.push_back({n, stride, a_f * (p[n] - p[n - stride])});
   }
 
-  // With the forced region as the body: the fluid's acceleration du_d/dt + (u . grad u)_d on each closed forced face
-  // beside a fluid cell, times the face's area (the same for every potential). The fluid there slides along the body,
-  // so the kinematic term takes it instead of the parts' rigid accelerations (FpmOptions::body).
+  // With the forced region as the body the convective terms are taken in the solver's own discrete form, so that they
+  // sum by parts exactly to its momentum equation's convective term on the open faces (docs/theory/
+  // force-partitioning.md, "The forced region as the body"): c = sum_e d/dx_e (u_e u_d) at every face of an active
+  // cell (ns::convective_acceleration; on the domain's faces the outer term's u . grad u . n). The kinematic term
+  // takes du_d/dt + c_d on each closed face beside an active cell (the fluid there slides along the body, so not the
+  // parts' rigid accelerations), times the face's area (the same for every potential); the vortex-induced term takes
+  // each active cell's net outflow of c, the discrete int div(u . grad u) dV = -2 int Q dV, as its Q.
   struct WallFace {
-    std::ptrdiff_t up, low;  // the fluid cells above and below the face along d (-1: none)
-    double weight;           // A (du_d/dt + (u . grad u)_d)
+    std::ptrdiff_t up, low;  // the active cells above and below the face along d (-1: none)
+    double weight;           // A (du_d/dt + c_d)
   };
   std::vector<WallFace> wall_faces;
-  if (opt_.body == FpmBody::forced_region) {
+  if (widened) {
     const bool rate = have_u_prev_ && t > t_prev_;
+    auto face_area = [&](int d, const int* I) {
+      const int e = (d + 1) % 3, h = (d + 2) % 3;
+      return g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
+    };
     for (int d = 0; d < 3; ++d) {
       const ns::Axis& ad = g.axis[std::size_t(d)];
-      const int e = (d + 1) % 3, h = (d + 2) % 3;
-      const Field& ud = u[d];
-      const std::ptrdiff_t stride = s.stride(d);
       for (int kk = 1; kk <= s.nz; ++kk)
         for (int j = 1; j <= s.ny; ++j)
           for (int ii = 1; ii <= s.nx; ++ii) {
             const int I[3] = {ii, j, kk};
-            if (I[d] == 1) continue;  // the domain's faces (and a periodic seam's, left out)
+            if (I[d] == 1 && !ad.periodic) continue;  // the domain's faces: the outer term
             const std::ptrdiff_t n = s(ii, j, kk);
-            if (!o.forced[std::size_t(d)][std::size_t(n)]) continue;
-            const bool up = o.active(n), low = o.active(n - stride);
+            if (o.aperture[std::size_t(d)][n] > 0) continue;  // open: the momentum equation's face
+            // the cell below; across a periodic seam (face 1) the last cell along d
+            int Lo[3] = {ii, j, kk};
+            Lo[d] = I[d] == 1 ? ad.n : I[d] - 1;
+            const std::ptrdiff_t low_n = s(Lo[0], Lo[1], Lo[2]);
+            const bool up = o.active(n), low = o.active(low_n);
             if (!up && !low) continue;
-            int A[3] = {ii, j, kk}, B[3] = {ii, j, kk};
-            ++A[d];
-            --B[d];
-            const std::size_t F = std::size_t(I[d]);
-            double acc = ud(ii, j, kk) * (ud(A[0], A[1], A[2]) - ud(B[0], B[1], B[2])) / (ad.xf[F + 1] - ad.xf[F - 1]);
-            for (int a : {e, h}) {
-              const ns::Axis& aa = g.axis[std::size_t(a)];
-              // u_a at the face: the a-faces of the cells on both sides; d u_d / d x_a centred
-              int U[3] = {ii, j, kk}, L[3] = {ii, j, kk};
-              --L[d];
-              int U1[3] = {U[0], U[1], U[2]}, L1[3] = {L[0], L[1], L[2]};
-              ++U1[a];
-              ++L1[a];
-              const double ua = 0.25 * (u[a](U[0], U[1], U[2]) + u[a](U1[0], U1[1], U1[2]) + u[a](L[0], L[1], L[2]) +
-                                        u[a](L1[0], L1[1], L1[2]));
-              int P[3] = {ii, j, kk}, M[3] = {ii, j, kk};
-              ++P[a];
-              --M[a];
-              acc += ua * (ud(P[0], P[1], P[2]) - ud(M[0], M[1], M[2])) /
-                     (aa.xc[std::size_t(P[a])] - aa.xc[std::size_t(M[a])]);
-            }
-            if (rate) acc += (ud(ii, j, kk) - u_prev_[d](ii, j, kk)) / (t - t_prev_);
-            const double area =
-                g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
-            wall_faces.push_back({up ? n : -1, low ? n - stride : -1, area * acc});
+            double acc = ns::convective_acceleration(g, u, d, ii, j, kk);
+            if (rate) acc += (u[d](ii, j, kk) - u_prev_[d](ii, j, kk)) / (t - t_prev_);
+            wall_faces.push_back({up ? n : -1, low ? low_n : -1, face_area(d, I) * acc});
           }
     }
+    // each active cell's net outflow of c through its six faces (the domain's from the outer term), per fluid volume
+    q_.assign(s.cells(), 0.0);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int ii = 1; ii <= s.nx; ++ii) {
+          if (!o.active(s(ii, j, kk))) continue;
+          double out = 0;
+          for (int d = 0; d < 3; ++d) {
+            const ns::Axis& ad = g.axis[std::size_t(d)];
+            for (int side = 0; side < 2; ++side) {
+              int F[3] = {ii, j, kk};
+              F[d] += side;
+              if (F[d] == 1 || F[d] == ad.n + 1) {
+                if (!ad.periodic) continue;
+                F[d] = 1;  // face n + 1 of a periodic axis is face 1
+              }
+              out += (side ? 1.0 : -1.0) * face_area(d, F) * ns::convective_acceleration(g, u, d, F[0], F[1], F[2]);
+            }
+          }
+          q_[flat(ii, j, kk)] = out;
+        }
+    for (std::size_t m = 0; m < outer.size(); ++m)
+      q_[flat(outer[m].i, outer[m].j, outer[m].k)] += outer[m].area * conv_n[m];
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int ii = 1; ii <= s.nx; ++ii) {
+          const double vf = o.volume_fraction(ii, j, kk);
+          double& q = q_[flat(ii, j, kk)];
+          q = vf > 0 ? -0.5 * q / (g.volume(ii, j, kk) * vf) : 0.0;  // Q = -(1/2) div(u . grad u)
+        }
   }
 
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
@@ -452,7 +475,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     double band = 0;
     for (const ForcedFace& f : forced_faces) band += f.weight * (phi[f.n] - phi[f.n - f.stride]);
     T.pressure_forced = rho * band;
-    if (opt_.body == FpmBody::forced_region) {  // the fluid's acceleration on the widened body's faces
+    if (widened) {  // the fluid's acceleration on the widened body's faces
       double wall = 0;
       for (const WallFace& f : wall_faces)
         wall += f.weight * ((f.up >= 0 ? phi[f.up] : 0.0) - (f.low >= 0 ? phi[f.low] : 0.0));

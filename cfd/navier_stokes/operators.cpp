@@ -162,6 +162,21 @@ void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& N
   for (int k = 1; k <= s.nz; ++k) predict_plane(s, k, a);
 }
 
+double convective_acceleration(const Grid& g, const VectorField& u, int d, int i, int j, int k) {
+  const Shape& s = u[0].shape();
+  const AxisView X(g.axis[0]), Y(g.axis[1]), Z(g.axis[2]);
+  const std::ptrdiff_t n = s(i, j, k), sy = s.sy, sz = s.sz;
+  const real *u0 = u[0].data(), *u1 = u[1].data(), *u2 = u[2].data();
+  if (d == 0)
+    return transport<0, 0>(u0, u0, n, 1, 1, X, X, i, i, 0) + transport<0, 1>(u0, u1, n, 1, sy, X, Y, i, j, 0) +
+           transport<0, 2>(u0, u2, n, 1, sz, X, Z, i, k, 0);
+  if (d == 1)
+    return transport<1, 0>(u1, u0, n, sy, 1, Y, X, j, i, 0) + transport<1, 1>(u1, u1, n, sy, sy, Y, Y, j, j, 0) +
+           transport<1, 2>(u1, u2, n, sy, sz, Y, Z, j, k, 0);
+  return transport<2, 0>(u2, u0, n, sz, 1, Z, X, k, i, 0) + transport<2, 1>(u2, u1, n, sz, sy, Z, Y, k, j, 0) +
+         transport<2, 2>(u2, u2, n, sz, sz, Z, Z, k, k, 0);
+}
+
 void add_coriolis(const Grid& g, const VectorField& u, VectorField& Nprev, VectorField& ustar, const Vec3& omega,
                   double dt, const StageCoefficients& c) {
   const Shape s = g.shape();

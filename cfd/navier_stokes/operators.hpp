@@ -18,6 +18,11 @@ struct StageCoefficients {
 void predict(const Grid& g, const VectorField& u, const Field& p, VectorField& Nprev, VectorField& ustar, double nu,
              double dt, const StageCoefficients& c);
 
+// The convective acceleration sum_e d/dx_e (u_e u_d) at the u_d point (i, j, k) (face i, j or k of cell (i, j, k)
+// along d, 1 .. n), in the predictor's discrete form (flux form, central): du_d/dt = -it + nu lap u_d - dp/dx_d there.
+// Reads the neighbours and ghosts the predictor reads (faces 0 and cells 0 along d at face 1).
+double convective_acceleration(const Grid& g, const VectorField& u, int d, int i, int j, int k);
+
 // The Coriolis acceleration of a frame rotating at omega (rad/s), C = -2 omega x u, on every interior face (the
 // other components averaged from their four nearest faces): ustar += gamma dt C(u) and Nprev += C(u), so the next
 // stage's zeta term carries it as part of N. Call after predict with the same u and coefficients.
