@@ -621,8 +621,9 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
   // equation holds on every open face and no pressure is left on forced faces; the kinematic term takes the fluid's
   // acceleration on that body's faces, where the fluid slides along, and the convective terms are the solver's own,
   // so kinematic + vortex-induced sum by parts to the momentum equation's convective term on the open faces): measured
-  // pressure C_D on that body 0.703 / 0.629, closure gap 0.17 % / 0.15 %, what is left of the flow's change over the
-  // step (the solver's momentum terms alone, DISABLED_SteadySphereClosureStudy's DIAG lines, close to 0.05 %). Before
+  // pressure C_D on that body 0.703 / 0.629, closure gap 0.17 % / 0.15 %: the solver's pressure at the end of the
+  // step against its momentum terms (which alone give the direct force to within 0.1 %,
+  // DISABLED_SteadySphereClosureStudy's MOMENTUM lines) and the projection's tolerance (the identity below). Before
   // the convective terms were the solver's (Q from central differences at the cell centres, the faces' u . grad u in
   // advective form) the gap was 1.6 % / 6.5 % and grew to 14 % on D/16; with the parts' rigid acceleration (zero here)
   // instead of the fluid's, 16 % / 24 %. Asserted: within 0.5 % on both grids.
