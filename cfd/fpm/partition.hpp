@@ -90,7 +90,9 @@ struct FpmOptions {
   // The region the potentials treat as the parts (fluid_geometry). With FpmBody::forced_region the kinematic term is
   // rho oint phi n . (du/dt + u . grad u) dS over the widened body's faces with the fluid's velocity there, which
   // slides along the body (its du/dt from the velocity at record_boundary(), called the step before; none: left out);
-  // `centripetal` stays the rigid parts' centripetal acceleration reaction on those faces.
+  // `centripetal` stays the rigid parts' centripetal acceleration reaction on those faces. Its u . grad u, and the
+  // vortex-induced term's Q, are the solver's own discrete convective term (ns::convective_acceleration), so that the
+  // parts sum by parts to the solver's momentum terms on the open faces.
   FpmBody body = FpmBody::surface;
   // Also the power potential of each part: d phi/dn = v . n with the part's rigid velocity v at the update (its
   // partition is the rate of work by mechanism, PartPartition::power_*). Needs the part states in update().
