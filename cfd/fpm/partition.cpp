@@ -350,8 +350,35 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       const int e = (d + 1) % 3, h = (d + 2) % 3;
       return g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
     };
+    // q_ first holds each active cell's net outflow of c through its six faces (the domain's from the outer term);
+    // cf holds c_d at the lower face of every cell, one direction at a time (each face evaluated once)
+    q_.assign(s.cells(), 0.0);
+    std::vector<double> cf(s.cells());
     for (int d = 0; d < 3; ++d) {
       const ns::Axis& ad = g.axis[std::size_t(d)];
+      const std::ptrdiff_t fs = d == 0 ? 1 : d == 1 ? std::ptrdiff_t(s.nx) : std::ptrdiff_t(s.nx) * s.ny;
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            const int I[3] = {ii, j, kk};
+            cf[flat(ii, j, kk)] = I[d] == 1 && !ad.periodic ? 0.0 : ns::convective_acceleration(g, u, d, ii, j, kk);
+          }
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+      for (int kk = 1; kk <= s.nz; ++kk)
+        for (int j = 1; j <= s.ny; ++j)
+          for (int ii = 1; ii <= s.nx; ++ii) {
+            if (!o.active(s(ii, j, kk))) continue;
+            const int I[3] = {ii, j, kk};
+            const std::ptrdiff_t m = std::ptrdiff_t(flat(ii, j, kk));
+            // the upper face: the next cell's lower face; face n + 1 of a periodic axis is face 1
+            double net = I[d] < ad.n    ? cf[std::size_t(m + fs)]
+                         : ad.periodic ? cf[std::size_t(m - (ad.n - 1) * fs)]
+                                       : 0.0;
+            if (I[d] > 1 || ad.periodic) net -= cf[std::size_t(m)];
+            q_[std::size_t(m)] += face_area(d, I) * net;
+          }
+      // the closed faces along d beside an active cell
       for (int kk = 1; kk <= s.nz; ++kk)
         for (int j = 1; j <= s.ny; ++j)
           for (int ii = 1; ii <= s.nx; ++ii) {
@@ -365,35 +392,14 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
             const std::ptrdiff_t low_n = s(Lo[0], Lo[1], Lo[2]);
             const bool up = o.active(n), low = o.active(low_n);
             if (!up && !low) continue;
-            double acc = ns::convective_acceleration(g, u, d, ii, j, kk);
+            double acc = cf[flat(ii, j, kk)];
             if (rate) acc += (u[d](ii, j, kk) - u_prev_[d](ii, j, kk)) / (t - t_prev_);
             wall_faces.push_back({up ? n : -1, low ? low_n : -1, face_area(d, I) * acc});
           }
     }
-    // each active cell's net outflow of c through its six faces (the domain's from the outer term), per fluid volume
-    q_.assign(s.cells(), 0.0);
-#pragma omp parallel for schedule(static) if (ns::threaded(s))
-    for (int kk = 1; kk <= s.nz; ++kk)
-      for (int j = 1; j <= s.ny; ++j)
-        for (int ii = 1; ii <= s.nx; ++ii) {
-          if (!o.active(s(ii, j, kk))) continue;
-          double out = 0;
-          for (int d = 0; d < 3; ++d) {
-            const ns::Axis& ad = g.axis[std::size_t(d)];
-            for (int side = 0; side < 2; ++side) {
-              int F[3] = {ii, j, kk};
-              F[d] += side;
-              if (F[d] == 1 || F[d] == ad.n + 1) {
-                if (!ad.periodic) continue;
-                F[d] = 1;  // face n + 1 of a periodic axis is face 1
-              }
-              out += (side ? 1.0 : -1.0) * face_area(d, F) * ns::convective_acceleration(g, u, d, F[0], F[1], F[2]);
-            }
-          }
-          q_[flat(ii, j, kk)] = out;
-        }
     for (std::size_t m = 0; m < outer.size(); ++m)
       q_[flat(outer[m].i, outer[m].j, outer[m].k)] += outer[m].area * conv_n[m];
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (int kk = 1; kk <= s.nz; ++kk)
       for (int j = 1; j <= s.ny; ++j)
         for (int ii = 1; ii <= s.nx; ++ii) {
