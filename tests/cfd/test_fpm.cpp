@@ -633,6 +633,34 @@ TEST(FpmPartition, SteadySphereAtRe100Closes) {
   EXPECT_LT(region_gap[1], 0.005);
 }
 
+// ns::convective_acceleration is the predictor's convective term at one face: on a stretched x axis, a periodic y axis
+// and a uniform z axis with a smooth velocity field (ghosts included), it equals -N of predict() with nu = 0 at every
+// face the predictor sweeps, to round-off (the predictor's kernel may contract multiply-adds: 1e-12 of the largest
+// value). The widened body's partition and the identity test below build on it; a stencil or index slip shows here.
+TEST(NavierStokesOperators, ConvectiveAccelerationIsThePredictorsConvectiveTerm) {
+  const Grid g(Axis::stretched(StretchedAxis{-1, 1, -0.3, 0.3, 0.1, 1.08, 1}, false), Axis::uniform(0, 1, 6, true),
+               Axis::uniform(-0.5, 0.5, 5, false));
+  const Shape s = g.shape();
+  VectorField u(s), N(s), ustar(s);
+  for (int d = 0; d < 3; ++d)
+    for (int k = 0; k <= s.nz + 1; ++k)
+      for (int j = 0; j <= s.ny + 1; ++j)
+        for (int i = 0; i <= s.nx + 1; ++i)
+          u[d](i, j, k) = std::sin(1.3 * i + 0.7 * d) * std::cos(0.9 * j - 0.4 * k) + 0.2 * (d + 1) * k;
+  const Field p(s);
+  predict(g, u, p, N, ustar, 0.0, 1.0, StageCoefficients{});
+  double largest = 0, worst = 0;
+  for (int d = 0; d < 3; ++d)
+    for (int k = 1; k <= s.nz; ++k)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int i = 1; i <= s.nx; ++i) {
+          largest = std::max(largest, std::abs(N[d](i, j, k)));
+          worst = std::max(worst, std::abs(convective_acceleration(g, u, d, i, j, k) + N[d](i, j, k)));
+        }
+  EXPECT_GT(largest, 1.0);
+  EXPECT_LT(worst, 1e-12 * largest);
+}
+
 // With the forced region as the body the kinematic and vortex-induced terms are built from the solver's own convective
 // acceleration c (ns::convective_acceleration) and the velocity's change over the last step, so that, summed by parts,
 // they equal the solver's convective and unsteady momentum terms on the open faces: kinematic + vortex-induced + outer
