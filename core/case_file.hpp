@@ -43,8 +43,10 @@ struct FpmSettings {
   // The region the influence potentials treat as the parts: "surface", the parts as their surfaces give them (cut
   // cells; the pressure on the faces the immersed boundary forces is left over as pressure_forced), or
   // "forced-region", the parts widened to every forced face, with the fluid's acceleration on that body's faces in
-  // the kinematic part (closes to within a few % where "surface" leaves ~half on the forced faces, but holds the
-  // added mass of a body about a cell larger). docs/theory/force-partitioning.md, "The forced region as the body".
+  // the kinematic part and every term in the form of the solver's last Runge-Kutta stage (closes each sample to the
+  // solvers' tolerances where "surface" leaves ~half on the forced faces, but holds the added mass of a body about a
+  // cell larger; the solver keeps two more velocity fields). docs/theory/force-partitioning.md, "The forced region as
+  // the body".
   std::string body = "surface";
 };
 

@@ -63,6 +63,11 @@ void copy_periodic_faces(Field& f, const Shape& s, int d) {
       }
 }
 
+// How far from the cells the parts own (cell_owners: the centres inside) a face may be forced: a membrane's band
+// reaches (1 + its half thickness) local widths from the mid-surface, and past its edges beyond the last owned centres
+// (a wing's tip and leading edge); one cell missed forced faces there (the hawkmoth's wing tips on 4 cells per chord).
+constexpr int kNearCells = 3;
+
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
                              int samples, FpmBody body) {
   const Shape s = g.shape();
@@ -84,23 +89,24 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     if (!g.axis[std::size_t(a)].periodic) return -1;
     return I < 1 ? I + n : I - n;
   };
-  // cells within one cell of a solid cell: the solid cells dilated by one along x, then y, then z (the 27 around)
+  // cells within kNearCells cells of a solid cell: the solid cells dilated by one along x, then y, then z (the 27
+  // around), kNearCells times
   std::vector<char> near(s.cells(), 0);
   {
     std::vector<char> next(s.cells(), 0);
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
     for (std::ptrdiff_t m = 0; m < std::ptrdiff_t(s.cells()); ++m) near[std::size_t(m)] = owners[std::size_t(m)] >= 0;
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < 3 * kNearCells; ++a) {
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
       for (int k = 1; k <= s.nz; ++k)
         for (int j = 1; j <= s.ny; ++j)
           for (int i = 1; i <= s.nx; ++i) {
             int I[3] = {i, j, k};
-            const int c = I[a];
+            const int axis = a % 3, c = I[axis];
             bool any = near[flat(i, j, k)];
             for (const int o : {-1, 1}) {
-              I[a] = image(a, c + o);
-              any = any || (I[a] > 0 && near[flat(I[0], I[1], I[2])]);
+              I[axis] = image(axis, c + o);
+              any = any || (I[axis] > 0 && near[flat(I[0], I[1], I[2])]);
             }
             next[flat(i, j, k)] = any;
           }

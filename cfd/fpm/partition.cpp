@@ -153,6 +153,7 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
       r.part = p;
       r.component = k;
       r.imbalance = magnitude > 0 ? std::abs(total) / magnitude : 0.0;
+      r.outflow = outer_area > 0 ? total : 0.0;
       r.pocket_cells = o.pocket_cells;
       reports_.push_back(r);
       xs.push_back(&phi_[std::size_t(p)][std::size_t(k)]);
@@ -234,21 +235,38 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   if (!widened) q_ = ns::centre_fields(g, u).q;
   auto flat = [&](int i, int j, int k) { return (std::size_t(k - 1) * s.ny + std::size_t(j - 1)) * s.nx + std::size_t(i - 1); };
 
-  // Du/Dt . n on the domain's faces next to fluid cells
-  std::vector<double> dudt_n(outer.size(), 0.0);
-  std::vector<double> conv_n(outer.size(), 0.0);  // its convective part u . grad u . n
+  // With the forced region as the body every term is taken in the form of the step's last Runge-Kutta stage, which
+  // on each open face balances the pressure at the step's end exactly (ns::Solver::stage_velocity): the rate
+  // (u - u_2) / (alpha dt) and the convective and viscous terms of wg u_2 + wz u_1 (wg = gamma / alpha, wz = zeta /
+  // alpha of that stage; they sum to 1). Before the first step (no stages) u_2 = u_1 = u and no rate.
+  if (widened && !solver.options().keep_stage_velocities)
+    throw std::invalid_argument("force partitioning with the forced region as the body needs the solver's stage "
+                                "velocities (ns::SolverOptions::keep_stage_velocities)");
+  const bool staged = widened && solver.has_stage_velocities();
+  const ns::VectorField& u2 = staged ? solver.stage_velocity(1) : u;
+  const ns::VectorField& u1 = staged ? solver.stage_velocity(0) : u;
+  const ns::StageCoefficients last = ns::Solver::stage_coefficients(2);
+  const double wg = staged ? last.gamma / last.alpha() : 1.0, wz = staged ? last.zeta / last.alpha() : 0.0;
+  const double adt = last.alpha() * solver.last_dt();
+
+  // Du/Dt . n on the domain's faces next to fluid cells (n out of the domain)
   const double t = solver.time();
   std::array<std::vector<double>, 6> un_now = boundary_normal_velocities(g, u);
-  {
+  auto boundary_face = [&](const DomainFace& f) {  // the face's index along its axis d
+    int F[3] = {f.i, f.j, f.k};
+    F[f.d] = f.side == 0 ? 1 : g.axis[std::size_t(f.d)].n + 1;
+    return std::array<int, 3>{F[0], F[1], F[2]};
+  };
+  // u . grad u . n of the velocity v: u_d du_d/dx_d one-sided into the domain, u_a du_d/dx_a central along the face
+  auto outer_convection = [&](const ns::VectorField& v) {
+    std::vector<double> out(outer.size());
     std::size_t m = 0;
     for (const auto& f : outer) {
       const int d = f.d, e = (d + 1) % 3, h = (d + 2) % 3;
       const ns::Axis& ad = g.axis[std::size_t(d)];
-      int F[3] = {f.i, f.j, f.k};
-      F[d] = f.side == 0 ? 1 : ad.n + 1;
-      const Field& ud = u[d];
+      const std::array<int, 3> F = boundary_face(f);
+      const Field& ud = v[d];
       const double un = ud(F[0], F[1], F[2]);
-      // d u_d / d x_d one-sided into the domain
       int G[3] = {F[0], F[1], F[2]};
       G[d] += f.side == 0 ? 1 : -1;
       const double dudd = (f.side == 0 ? ud(G[0], G[1], G[2]) - un : un - ud(G[0], G[1], G[2])) /
@@ -262,34 +280,69 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         int C1[3] = {C[0], C[1], C[2]}, G1[3] = {Gh[0], Gh[1], Gh[2]};
         ++C1[a];
         ++G1[a];
-        const double ua = 0.25 * (u[a](C[0], C[1], C[2]) + u[a](C1[0], C1[1], C1[2]) + u[a](Gh[0], Gh[1], Gh[2]) +
-                                  u[a](G1[0], G1[1], G1[2]));
+        const double ua = 0.25 * (v[a](C[0], C[1], C[2]) + v[a](C1[0], C1[1], C1[2]) + v[a](Gh[0], Gh[1], Gh[2]) +
+                                  v[a](G1[0], G1[1], G1[2]));
         int P[3] = {F[0], F[1], F[2]}, M[3] = {F[0], F[1], F[2]};
         ++P[a];
         --M[a];
         const double dx = aa.xc[std::size_t(P[a])] - aa.xc[std::size_t(M[a])];
         conv += ua * (ud(P[0], P[1], P[2]) - ud(M[0], M[1], M[2])) / dx;
       }
-      // d u_n / dt from the previous record of the same face (none at the first call)
-      const std::size_t plane = std::size_t(2 * d + f.side), idx = plane_index(s, d, f.i, f.j, f.k);
-      const auto& prev = un_prev_[plane];
-      const double dt_term =
-          have_prev_ && t > t_prev_ && idx < prev.size() ? (un - prev[idx]) / (t - t_prev_) : 0.0;
-      conv_n[m] = conv * (f.side == 0 ? -1.0 : 1.0);
-      dudt_n[m++] = (dt_term + conv) * (f.side == 0 ? -1.0 : 1.0);
+      out[m++] = conv * (f.side == 0 ? -1.0 : 1.0);
     }
+    return out;
+  };
+  std::vector<double> conv_n = outer_convection(u2);  // its convective part u . grad u . n
+  if (wz != 0) {
+    const std::vector<double> first = outer_convection(u1);
+    for (std::size_t m = 0; m < outer.size(); ++m) conv_n[m] = wg * conv_n[m] + wz * first[m];
+  }
+  std::vector<double> dudt_n(outer.size(), 0.0);
+  for (std::size_t m = 0; m < outer.size(); ++m) {
+    const DomainFace& f = outer[m];
+    const std::array<int, 3> F = boundary_face(f);
+    const double un = u[f.d](F[0], F[1], F[2]);
+    // d u_n / dt: over the last stage, or from the previous record of the same face (none at the first call)
+    double rate = 0;
+    if (staged) {
+      rate = (un - u2[f.d](F[0], F[1], F[2])) / adt;
+    } else {
+      const std::size_t plane = std::size_t(2 * f.d + f.side), idx = plane_index(s, f.d, f.i, f.j, f.k);
+      const auto& prev = un_prev_[plane];
+      if (have_prev_ && t > t_prev_ && idx < prev.size()) rate = (un - prev[idx]) / (t - t_prev_);
+    }
+    dudt_n[m] = rate * (f.side == 0 ? -1.0 : 1.0) + conv_n[m];
   }
 
   // mu lap u . grad phi per open face (both cells fluid) without grad phi: the MAC Laplacian of u_d at the face
   // times its open area beta A (the same for every potential, so computed once). With a sponge layer also its force
   // per unit mass f = -sigma (u - u_far) (Solver::sponge_force) times beta A, weighted with grad phi the same way:
-  // rho int f . grad phi dV, a part of the outer term (the far field's treatment, its faces and its layer).
+  // rho int f . grad phi dV, a part of the outer term (the far field's treatment, its faces and its layer). In the
+  // last stage's form the layer relaxes the predicted velocity, u + alpha dt grad(phi_3) with phi_3 that stage's
+  // pressure increment, not u.
   ns::VectorField lap_area(s);
   const bool sponge = solver.options().sponge.active();
   ns::VectorField sponge_area;  // f beta A per open face; zero elsewhere
   if (sponge) {
     sponge_area = ns::VectorField(s);
-    solver.sponge_force(u, sponge_area);
+    if (staged) {
+      ns::VectorField predicted = u;
+      const Field& increment = solver.pressure_increments()[2];
+      for (int d = 0; d < 3; ++d) {
+        const ns::Axis& ad = g.axis[std::size_t(d)];
+        const std::ptrdiff_t st = s.stride(d);
+        for (int kk = 1; kk <= s.nz; ++kk)
+          for (int j = 1; j <= s.ny; ++j)
+            for (int ii = 1; ii <= s.nx; ++ii) {
+              const int I[3] = {ii, j, kk};
+              const std::ptrdiff_t n = s(ii, j, kk);
+              predicted[d][n] += adt * (increment[n] - increment[n - st]) * ad.idf[std::size_t(I[d])];
+            }
+      }
+      solver.sponge_force(predicted, sponge_area);
+    } else {
+      solver.sponge_force(u, sponge_area);
+    }
   }
   for (int d = 0; d < 3; ++d) {
     const ns::Axis& ad = g.axis[std::size_t(d)];
@@ -313,7 +366,9 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
           // reconstructed profile and the rigid velocity inside the part, about mu du/dn per unit area, which does not
           // vanish with the grid; the momentum equation it stands for does not hold there (direct forcing replaces it).
           if (beta <= 0 || forced_d[std::size_t(s(ii, j, kk))]) continue;
-          w(ii, j, kk) = face_laplacian(g, ud, d, ii, j, kk) * beta * area;
+          double lap = face_laplacian(g, staged ? u2[d] : ud, d, ii, j, kk);
+          if (wz != 0) lap = wg * lap + wz * face_laplacian(g, u1[d], d, ii, j, kk);
+          w(ii, j, kk) = lap * beta * area;
         }
   }
 
@@ -345,7 +400,6 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   };
   std::vector<WallFace> wall_faces;
   if (widened) {
-    const bool rate = have_u_prev_ && t > t_prev_;
     auto face_area = [&](int d, const int* I) {
       const int e = (d + 1) % 3, h = (d + 2) % 3;
       return g.axis[std::size_t(e)].dc[std::size_t(I[e])] * g.axis[std::size_t(h)].dc[std::size_t(I[h])];
@@ -362,7 +416,12 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         for (int j = 1; j <= s.ny; ++j)
           for (int ii = 1; ii <= s.nx; ++ii) {
             const int I[3] = {ii, j, kk};
-            cf[flat(ii, j, kk)] = I[d] == 1 && !ad.periodic ? 0.0 : ns::convective_acceleration(g, u, d, ii, j, kk);
+            double c = 0;
+            if (I[d] > 1 || ad.periodic) {
+              c = ns::convective_acceleration(g, u2, d, ii, j, kk);
+              if (wz != 0) c = wg * c + wz * ns::convective_acceleration(g, u1, d, ii, j, kk);
+            }
+            cf[flat(ii, j, kk)] = c;
           }
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
       for (int kk = 1; kk <= s.nz; ++kk)
@@ -393,7 +452,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
             const bool up = o.active(n), low = o.active(low_n);
             if (!up && !low) continue;
             double acc = cf[flat(ii, j, kk)];
-            if (rate) acc += (u[d](ii, j, kk) - u_prev_[d](ii, j, kk)) / (t - t_prev_);
+            if (staged) acc += (u[d](ii, j, kk) - u2[d](ii, j, kk)) / adt;
             wall_faces.push_back({up ? n : -1, low ? low_n : -1, face_area(d, I) * acc});
           }
     }
@@ -409,6 +468,23 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
+  // The widened body's kinematic term takes the rate in its volume form, -rho sum_open A_f (du_d/dt)_f (phi_c - phi_nb),
+  // which summed by parts is the closed faces' share above plus rho sum_cells phi_c V_c div(du/dt)_c: the divergence
+  // the projections leave over the last stage (zero if they were exact). Its weight of phi per active cell.
+  std::vector<double> rate_weight;
+  if (staged) {
+    rate_weight.assign(s.cells(), 0.0);
+    Field now(s), before(s);
+    ns::divergence(g, u, now, 1.0);
+    ns::divergence(g, u2, before, 1.0);
+#pragma omp parallel for schedule(static) if (ns::threaded(s))
+    for (int kk = 1; kk <= s.nz; ++kk)
+      for (int j = 1; j <= s.ny; ++j)
+        for (int ii = 1; ii <= s.nx; ++ii)
+          if (o.active(s(ii, j, kk)))
+            rate_weight[flat(ii, j, kk)] = g.volume(ii, j, kk) * (now(ii, j, kk) - before(ii, j, kk)) / adt;
+  }
+
   // Q times the cell's fluid volume, the vortex-induced term's weight of phi
   std::vector<double> vortex_weight(s.cells());
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
@@ -418,6 +494,11 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         const std::size_t n = flat(ii, j, kk);
         vortex_weight[n] = q_[n] * g.volume(ii, j, kk) * o.volume_fraction(ii, j, kk);
       }
+
+  // the area-weighted mean pressure on the domain's faces (of the cells next to them)
+  double outer_pressure = 0;
+  if (outer_area_ > 0)
+    for (const auto& f : outer) outer_pressure += p[f.cell] * f.area / outer_area_;
 
   // The terms of one potential of part i (datum k): rho-scaled as in the partition's formula, the regions' share of the
   // vortex-induced part (region_count_ entries; none without regions).
@@ -443,28 +524,31 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     const int nr = std::max(region_count_, 1);
     std::vector<double> by_region(std::size_t(nr), 0.0);
     double* acc = by_region.data();
-    double visc = 0, layer = 0;  // layer: int f . grad phi dV of the sponge layer
+    double visc = 0, layer = 0, rate = 0;  // layer: int f . grad phi dV of the sponge layer
     const int* label = region_count_ > 0 ? region_labels_.data() : nullptr;
     const double *w0 = lap_area[0].data(), *w1 = lap_area[1].data(), *w2 = lap_area[2].data();
     const double* f0 = sponge ? sponge_area[0].data() : nullptr;
     const double* f1 = sponge ? sponge_area[1].data() : nullptr;
     const double* f2 = sponge ? sponge_area[2].data() : nullptr;
     const std::ptrdiff_t sy = s.sy, sz = s.sz;
-#pragma omp parallel for schedule(static) reduction(+ : acc[:nr], visc, layer) if (ns::threaded(s))
+    const double* rw = rate_weight.empty() ? nullptr : rate_weight.data();
+#pragma omp parallel for schedule(static) reduction(+ : acc[:nr], visc, layer, rate) if (ns::threaded(s))
     for (int kk = 1; kk <= s.nz; ++kk)
       for (int j = 1; j <= s.ny; ++j) {
         const std::size_t m0 = flat(1, j, kk);
         const std::ptrdiff_t n0 = s(1, j, kk);
-        double line = 0, line_layer = 0;
+        double line = 0, line_layer = 0, line_rate = 0;
         for (int ii = 0; ii < s.nx; ++ii) {
           const std::ptrdiff_t n = n0 + ii;
           const double f = phi[n], dx = f - phi[n - 1], dy = f - phi[n - sy], dz = f - phi[n - sz];
           line += w0[n] * dx + w1[n] * dy + w2[n] * dz;
           if (f0) line_layer += f0[n] * dx + f1[n] * dy + f2[n] * dz;
+          if (rw) line_rate += rw[m0 + std::size_t(ii)] * f;
           acc[label ? label[m0 + std::size_t(ii)] : 0] += vortex_weight[m0 + std::size_t(ii)] * f;
         }
         visc += line;
         layer += line_layer;
+        rate += line_rate;
       }
     double vortex = 0;
     for (double v : by_region) vortex += v;
@@ -472,11 +556,17 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       for (double v : by_region) T.regions.push_back(-2 * rho * v);
     double outer_term = 0;
     for (std::size_t m = 0; m < outer.size(); ++m) outer_term += phi[outer[m].cell] * dudt_n[m] * outer[m].area;
+    // Where part i's wetted surface is not closed its potential's flux leaves through the domain's faces (update()),
+    // and the Green identity gains the pressure there: -oint_domain p dphi/dn dS = the flux times the area-weighted
+    // mean pressure on the domain's faces, a part of the outer term.
+    double far_pressure = 0;
+    for (const PotentialReport& r : reports_)
+      if (r.part == i && r.component == k && r.outflow != 0) far_pressure = r.outflow * outer_pressure;
     T.kinematic = rho * kin;
     T.centripetal = rho * car;
     T.vortex = -2 * rho * vortex;
     T.viscous = mu * visc;
-    T.outer = -rho * outer_term + rho * layer;
+    T.outer = -rho * outer_term + rho * layer + rho * far_pressure;
     T.pressure = rho * direct;
     double band = 0;
     for (const ForcedFace& f : forced_faces) band += f.weight * (phi[f.n] - phi[f.n - f.stride]);
@@ -485,7 +575,7 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
       double wall = 0;
       for (const WallFace& f : wall_faces)
         wall += f.weight * ((f.up >= 0 ? phi[f.up] : 0.0) - (f.low >= 0 ? phi[f.low] : 0.0));
-      T.kinematic = rho * wall;
+      T.kinematic = rho * (wall + rate);
     }
     return T;
   };
@@ -530,10 +620,6 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
     }
   }
   un_prev_ = std::move(un_now);
-  if (opt_.body == FpmBody::forced_region) {
-    u_prev_ = u;
-    have_u_prev_ = true;
-  }
   t_prev_ = t;
   have_prev_ = true;
   return out;
@@ -553,10 +639,6 @@ void ForcePartition::set_regions(std::vector<int> labels, int count) {
 
 void ForcePartition::record_boundary(const ns::Solver& solver) {
   un_prev_ = boundary_normal_velocities(*grid_, solver.velocity());
-  if (opt_.body == FpmBody::forced_region) {  // the fluid's du/dt on the widened body's faces at the next partition
-    u_prev_ = solver.velocity();
-    have_u_prev_ = true;
-  }
   t_prev_ = solver.time();
   have_prev_ = true;
 }

@@ -89,10 +89,12 @@ struct FpmOptions {
   int face_samples = 4;  // m x m points per face near a surface for the cut-cell apertures
   // The region the potentials treat as the parts (fluid_geometry). With FpmBody::forced_region the kinematic term is
   // rho oint phi n . (du/dt + u . grad u) dS over the widened body's faces with the fluid's velocity there, which
-  // slides along the body (its du/dt from the velocity at record_boundary(), called the step before; none: left out);
-  // `centripetal` stays the rigid parts' centripetal acceleration reaction on those faces. Its u . grad u, and the
-  // vortex-induced term's Q, are the solver's own discrete convective term (ns::convective_acceleration), so that the
-  // parts sum by parts to the solver's momentum terms on the open faces.
+  // slides along the body; `centripetal` stays the rigid parts' centripetal acceleration reaction on those faces.
+  // Every term is then taken in the form of the last Runge-Kutta stage (the solver must keep its stage velocities,
+  // ns::SolverOptions::keep_stage_velocities; std::invalid_argument otherwise): du/dt its rate, u . grad u and the
+  // vortex-induced term's Q the solver's own discrete convective term (ns::convective_acceleration) of its velocities,
+  // the viscous term their Laplacian, so that the parts sum exactly to the pressure force on the widened body (to the
+  // projection's and the potentials' tolerances). docs/theory/force-partitioning.md, "The forced region as the body".
   FpmBody body = FpmBody::surface;
   // Also the power potential of each part: d phi/dn = v . n with the part's rigid velocity v at the update (its
   // partition is the rate of work by mechanism, PartPartition::power_*). Needs the part states in update().
@@ -103,6 +105,7 @@ struct PotentialReport {
   int part = 0, component = 0;  // component 6: the power potential
   LaplaceStats stats;
   double imbalance = 0;  // |sum of the Neumann fluxes| / sum of their magnitudes (0 for a closed wetted surface)
+  double outflow = 0;    // that sum: the flux of the potential that leaves through the domain's faces (m^2 for F)
   std::size_t pocket_cells = 0;  // fluid cells cut off by the parts, left out (FluidGeometry::pocket_cells)
 };
 
@@ -170,8 +173,6 @@ class ForcePartition {
   std::array<std::vector<double>, 6> un_prev_;
   double t_prev_ = 0;
   bool have_prev_ = false;
-  ns::VectorField u_prev_;  // the velocity at record_boundary() (forced-region body only)
-  bool have_u_prev_ = false;
 };
 
 }  // namespace flapstab::fpm

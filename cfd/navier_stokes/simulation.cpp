@@ -68,6 +68,8 @@ SolverOptions solver_options(const CfdSettings& s, const CfdPlan& plan, const Bo
   so.dt = plan.dt;
   so.frame_rate = m.rate;
   so.frame_rate_at = rotation.rate;
+  // the partition with the forced region as the body takes its terms from the last stage's velocities
+  so.keep_stage_velocities = s.fpm.enabled && s.fpm.body == "forced-region";
   const double speed = plan.tip_speed_max + plan.body_speed_max;
   so.dt_max = speed > 0 ? s.cfl * plan.h_actual / speed : plan.period / 100;
   if (plan.sponge_width > 0) {

@@ -315,6 +315,8 @@ void Solver::stage(double dt, const StageCoefficients& c, double t_stage) {
   dec_->exchange(p_, slab_);
   exchange(u_);
   after_projection(t_stage, stage_ == 2);
+  if (opt_.keep_stage_velocities && stage_ < 2)
+    for (int d = 0; d < 3; ++d) stage_u_[std::size_t(stage_)][d] = u_[d];
 }
 
 void Solver::after_projection(double t, bool read_after) {
@@ -339,7 +341,10 @@ double Solver::step() {
   const double dt = time_step(conv);
   rate_ = std::max(conv, viscous_rate_);
   stats_.clear();
+  stages_kept_ = false;
   for (stage_ = 0; stage_ < 3; ++stage_) stage(dt, rk3[stage_], t_ + rk3_end[stage_] * dt);
+  stages_kept_ = opt_.keep_stage_velocities;
+  dt_last_ = dt;
   guess_ = true;
   t_ += dt;
   if (dec_->max(std::isfinite(p_(1, 1, 1)) && std::isfinite(u_[0](1, 1, 1)) ? 0.0 : 1.0) > 0)
@@ -359,6 +364,7 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   phi_ = phi;
   guess_ = guess;
   t_ = t;
+  stages_kept_ = false;
   for (int d = 0; d < 3; ++d) rhs_u_[d].fill(0);  // the first RK3 stage does not read it (zeta_1 = 0)
   fill_ghosts(p_, pbc_);
   fill_velocity_ghosts(u_, bc_, t_, &grid_);
@@ -367,9 +373,21 @@ void Solver::restore(double t, const VectorField& u, const Field& p, const Vecto
   after_projection(t_, true);
 }
 
+const VectorField& Solver::stage_velocity(int k) const {
+  if (!stages_kept_ || k < 0 || k > 1)
+    throw std::logic_error("navier_stokes solver: stage_velocity(" + std::to_string(k) +
+                           ") without a kept stage (SolverOptions::keep_stage_velocities, k = 0 or 1, after a step)");
+  return stage_u_[std::size_t(k)];
+}
+
+StageCoefficients Solver::stage_coefficients(int k) {
+  if (k < 0 || k > 2) throw std::out_of_range("navier_stokes solver: RK3 stage " + std::to_string(k));
+  return rk3[k];
+}
+
 std::size_t Solver::bytes() const {
-  // u, u*, N_prev, phi (3 each), p, div, and the Poisson solver's vectors and levels.
-  return 14 * grid_.shape().size() * sizeof(real) + poisson_.bytes() + flags_.size() * sizeof(CellFlag);
+  // u, u*, N_prev, phi (3 each), p, div, the kept stage velocities (6), and the Poisson solver's vectors and levels.
+  return (14 + (opt_.keep_stage_velocities ? 6 : 0)) * grid_.shape().size() * sizeof(real) + poisson_.bytes() + flags_.size() * sizeof(CellFlag);
 }
 
 }  // namespace flapstab::ns

@@ -53,6 +53,10 @@ struct SolverOptions {
   Vec3 rate_at(double t) const { return frame_rate_at ? frame_rate_at(t) : frame_rate; }
   bool rotating() const { return bool(frame_rate_at) || frame_rate.squaredNorm() > 0; }
   Sponge sponge{};  // none unless a width and a rate are set
+  // Keep the velocity after each step's first and second stage (Solver::stage_velocity; six more grid fields and two
+  // copies per step): what force partitioning with the forced region as the body needs to take its terms in the form
+  // of the step's last stage (docs/theory/force-partitioning.md).
+  bool keep_stage_velocities = false;
 };
 
 // Per-cell state for an immersed boundary (all cells fluid until a body is immersed).
@@ -142,6 +146,15 @@ class Solver {
   // interior unknown; zero outside the layers and everywhere without a sponge. f must have the grid's shape.
   void sponge_force(const VectorField& u, VectorField& f) const;
   bool has_guess() const { return guess_; }
+  // The last step's RK3 stages (SolverOptions::keep_stage_velocities): the velocity after stage k = 0, 1 (u_1, u_2,
+  // ghosts filled at the stage's time). The last stage takes u_2 to the velocity() at time() as
+  //   u = u_2 - dt (gamma N(u_2) + zeta N(u_1)) - alpha dt grad p,   N(v) = the convective minus the viscous term,
+  // on every face the immersed boundary and the box leave alone, with p = pressure() and the coefficients
+  // stage_coefficients(2). False before the first step and after restore().
+  bool has_stage_velocities() const { return stages_kept_; }
+  const VectorField& stage_velocity(int k) const;
+  double last_dt() const { return dt_last_; }  // the last step's (0 before the first)
+  static StageCoefficients stage_coefficients(int k);  // stage k = 0, 1, 2 of the low-storage RK3
   void restore(double t, const VectorField& u, const Field& p, const VectorField& phi, bool guess);
 
  private:
@@ -172,6 +185,9 @@ class Solver {
   VectorField u_, ustar_, rhs_u_;  // velocity, predicted velocity, previous stage's momentum right-hand side
   Field p_, div_;                   // pressure, Poisson right-hand side
   VectorField phi_;                 // pressure increment of each stage (next step's initial guess)
+  std::array<VectorField, 2> stage_u_;  // with keep_stage_velocities: the velocity after stages 1 and 2
+  bool stages_kept_ = false;
+  double dt_last_ = 0;
   std::vector<CellFlag> flags_, wflags_;
   bool windowed_ = false;
   VectorField wu_;  // the hooks' window (hook_halo planes beyond each cut)

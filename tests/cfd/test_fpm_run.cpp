@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cfd/fpm/observer.hpp"
@@ -202,14 +203,18 @@ TEST(FpmRun, MemoryCheckCountsThePotentials) {
   EXPECT_NE(m.find("6 potentials"), std::string::npos) << m;
   EXPECT_NO_THROW(check_fpm_memory(plan, c.aero.cfd.fpm, c.path, run + fpm));
   FpmSettings widened = c.aero.cfd.fpm;
-  widened.body = "forced-region";  // keeps the last step's velocity
-  EXPECT_EQ(fpm_estimated_bytes(plan, widened) - fpm, 3 * ns::plan_grid(plan).shape().size() * sizeof(double));
+  widened.body = "forced-region";  // the solver keeps two stage velocities
+  EXPECT_EQ(fpm_estimated_bytes(plan, widened) - fpm, 6 * ns::plan_grid(plan).shape().size() * sizeof(double));
 }
 
 // body = "forced-region" in a run: the partition's body is the parts widened to the faces the immersed boundary
 // forces, so no pressure is left on forced faces (pressure_forced 0 in every row), run.json names the body and the
 // run prints the closure against that body's pressure force. The surface body's run of the same case leaves pressure
-// on the forced faces. The widened body's accuracy is validated on spheres in test_fpm.cpp.
+// on the forced faces. On the flapping wings (24 samples, both wings) the parts, taken in the form of the solver's last
+// Runge-Kutta stage, sum to that pressure force at every sample, to the potentials' tolerance (1e-4 of their
+// data): measured worst 4.1e-5 of the peak force (2.2e-12 with the potentials solved to 1e-10). Asserted within 1e-3.
+// It fails where the partition's forced faces are not the immersed boundary's: with the owned cells dilated by one
+// cell instead of three (fluid_geometry), the faces of the wings' bands past their tips were missed (worst 8.1e-2).
 TEST(FpmRun, ForcedRegionBodyLeavesNothingOnForcedFaces) {
   const std::string keys = "samples_per_cycle = 12\ncomponents = [\"Fz\"]\nparts = [\"right\", \"left\"]\n";
   const Case c = fpm_case("fpm_widened.toml", keys + "body = \"forced-region\"\n");
@@ -219,13 +224,17 @@ TEST(FpmRun, ForcedRegionBodyLeavesNothingOnForcedFaces) {
   o.log = &log;
   const ns::CfdResult res = run_cfd(c, c.kinematics, BodyMotion{}, o);
   ASSERT_EQ(res.fpm_rows.size(), 12u * 2);
-  double peak = 0;
+  double peak = 0, worst = 0;
   for (const FpmRow& r : res.fpm_rows) {
     EXPECT_EQ(r.pressure_forced, 0.0);
     EXPECT_TRUE(std::isfinite(r.kinematic));
     peak = std::max(peak, std::abs(r.pressure));
+    worst = std::max(worst, std::abs(r.sum() - r.pressure));
   }
   EXPECT_GT(peak, 0);
+  fmt::print("flapping test moth, forced region as the body: worst |sum - pressure| of a sample {:.3e} of the peak "
+             "pressure force\n", worst / peak);
+  EXPECT_LT(worst, 1e-3 * peak);
   const auto j = nlohmann::json::parse(read_text(o.directory + "/run.json"));
   EXPECT_EQ(j["fpm"]["body"], "forced-region");
   EXPECT_NE(log.str().find("body = \"forced-region\""), std::string::npos) << log.str();

@@ -50,6 +50,7 @@ struct OscillatingSphere {
     ns::SolverOptions opt;
     opt.nu = nu;
     opt.dt = 1.0 / per_period;
+    opt.keep_stage_velocities = true;  // for force partitioning with the forced region as the body
     return opt;
   }
 };

@@ -38,6 +38,7 @@ struct SphereInStream {
     if (hypre) opt.poisson.backend = ns::PoissonBackend::hypre;
     opt.nu = 1.0 / reynolds;
     opt.cfl = 1.2;
+    opt.keep_stage_velocities = true;  // for force partitioning with the forced region as the body
     return opt;
   }
 };
