@@ -63,18 +63,17 @@ void copy_periodic_faces(Field& f, const Shape& s, int d) {
       }
 }
 
-// How far from the cells the parts own (cell_owners: the centres inside) a face may be forced: a membrane's band
-// reaches (1 + its half thickness) local widths from the mid-surface, and past its edges beyond the last owned centres
-// (a wing's tip and leading edge); one cell missed forced faces there (the hawkmoth's wing tips on 4 cells per chord).
-constexpr int kNearCells = 3;
-
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
-                             int samples, FpmBody body) {
+                             int samples, FpmBody body, const std::vector<int>* seeds) {
   const Shape s = g.shape();
   if (owners.size() != s.cells())
     throw std::invalid_argument("force partitioning: cell owners of " + std::to_string(owners.size()) +
                                 " cells for a grid of " + std::to_string(s.cells()));
   if (samples < 1) throw std::invalid_argument("force partitioning: face samples must be >= 1");
+  if (seeds && seeds->size() != s.cells())
+    throw std::invalid_argument("force partitioning: near cells of " + std::to_string(seeds->size()) +
+                                " cells for a grid of " + std::to_string(s.cells()));
+  const std::vector<int>& seed = seeds ? *seeds : owners;
   FluidGeometry G;
   G.shape = s;
   G.parts = parts;
@@ -89,24 +88,24 @@ FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& leve
     if (!g.axis[std::size_t(a)].periodic) return -1;
     return I < 1 ? I + n : I - n;
   };
-  // cells within kNearCells cells of a solid cell: the solid cells dilated by one along x, then y, then z (the 27
-  // around), kNearCells times
+  // cells within one cell of a seed cell (a solid cell, or one of `near`): the seeds dilated by one along x, then y,
+  // then z (the 27 around)
   std::vector<char> near(s.cells(), 0);
   {
     std::vector<char> next(s.cells(), 0);
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
-    for (std::ptrdiff_t m = 0; m < std::ptrdiff_t(s.cells()); ++m) near[std::size_t(m)] = owners[std::size_t(m)] >= 0;
-    for (int a = 0; a < 3 * kNearCells; ++a) {
+    for (std::ptrdiff_t m = 0; m < std::ptrdiff_t(s.cells()); ++m) near[std::size_t(m)] = seed[std::size_t(m)] >= 0;
+    for (int a = 0; a < 3; ++a) {
 #pragma omp parallel for schedule(static) if (ns::threaded(s))
       for (int k = 1; k <= s.nz; ++k)
         for (int j = 1; j <= s.ny; ++j)
           for (int i = 1; i <= s.nx; ++i) {
             int I[3] = {i, j, k};
-            const int axis = a % 3, c = I[axis];
+            const int c = I[a];
             bool any = near[flat(i, j, k)];
             for (const int o : {-1, 1}) {
-              I[axis] = image(axis, c + o);
-              any = any || (I[axis] > 0 && near[flat(I[0], I[1], I[2])]);
+              I[a] = image(a, c + o);
+              any = any || (I[a] > 0 && near[flat(I[0], I[1], I[2])]);
             }
             next[flat(i, j, k)] = any;
           }

@@ -67,8 +67,11 @@ void copy_periodic_faces(Field& f, const Shape& s, int d);
 // below the local width h), closed whole, so that the momentum equation holds on every open face.
 enum class FpmBody { surface, forced_region };
 
+// `near` (optional, x fastest, >= 0 where set): the cells from which faces are tested, dilated by one; by default the
+// owners. A membrane's forcing band reaches 1.6 local widths from its mid-surface and wraps round its edges, beyond a
+// dilation of the cells whose centres it holds: pass the band's cells (ImmersedBoundary::cell_owners with reach 1).
 FluidGeometry fluid_geometry(const Grid& g, int parts, const LevelFunction& level, const std::vector<int>& owners,
-                             int samples = 4, FpmBody body = FpmBody::surface);
+                             int samples = 4, FpmBody body = FpmBody::surface, const std::vector<int>* near = nullptr);
 
 // The cell owners for an analytic level function (every cell centre evaluated), for tests and small grids.
 std::vector<int> owners_of(const Grid& g, int parts, const LevelFunction& level);

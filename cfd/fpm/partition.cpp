@@ -81,17 +81,20 @@ const std::vector<PotentialReport>& ForcePartition::update(const ns::ImmersedBou
   const LevelFunction level = [&](int part, const Vec3& x, double h) {
     return ib.solid_level_set(part, states[std::size_t(part)], x, h);
   };
-  return update(level, int(ib.parts()), ib.cell_owners(states), states);
+  // faces are tested from the cells of the forcing's bands (a membrane's reaches past the cells it owns)
+  const std::vector<int> band = ib.cell_owners(states, 1.0);
+  return update(level, int(ib.parts()), ib.cell_owners(states), states, &band);
 }
 
 const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& level, int parts,
                                                            const std::vector<int>& owners,
-                                                           const std::vector<PartState>& states) {
+                                                           const std::vector<PartState>& states,
+                                                           const std::vector<int>* near) {
   if (opt_.power && states.size() != std::size_t(parts))
     throw std::invalid_argument("force partitioning: the power potential needs the states of the " +
                                 std::to_string(parts) + " parts");
   const Grid& g = *grid_;
-  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples, opt_.body));
+  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples, opt_.body, near));
   const FluidGeometry& o = *geometry_;
   {
     auto next = std::make_unique<NeumannLaplacian>(g, o);

@@ -118,9 +118,10 @@ class ForcePartition {
   // std::invalid_argument when the states do not match the immersed boundary's parts.
   const std::vector<PotentialReport>& update(const ns::ImmersedBoundary& ib, const std::vector<PartState>& states);
   // The same for parts given by their level sets (`owners`: the part holding each interior cell's centre, x fastest,
-  // -1 fluid; owners_of() computes it).
+  // -1 fluid; owners_of() computes it; `near`: the cells from which faces are tested, fluid_geometry).
   const std::vector<PotentialReport>& update(const LevelFunction& level, int parts, const std::vector<int>& owners,
-                                            const std::vector<PartState>& states = {});
+                                            const std::vector<PartState>& states = {},
+                                            const std::vector<int>* near = nullptr);
 
   // The partition at the solver's current state for the parts at `states` (the same as the last update's), fluid
   // density rho. Needs update() first (std::logic_error). The outer term's d u_n / dt comes from the previous call's

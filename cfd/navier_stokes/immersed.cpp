@@ -822,7 +822,7 @@ std::vector<double> ImmersedBoundary::solid_mask(double t) const {
   return mask;
 }
 
-std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& states) const {
+std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& states, double reach) const {
   if (states.size() != impl_->parts.size())
     throw std::invalid_argument("immersed boundary: cell_owners got " + std::to_string(states.size()) +
                                 " part states for " + std::to_string(impl_->parts.size()) + " parts");
@@ -835,7 +835,8 @@ std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& sta
     const auto& p = impl_->parts[n];
     const RigidTransform& pose = states[n].pose;
     BoundingBox b = transformed_box(p.box, pose, 0);
-    if (p.mesh.membrane) b = transformed_box(p.box, pose, (impl_->opt.membrane_half_thickness + 1) * impl_->max_width(b));
+    const double thick = p.mesh.membrane ? impl_->opt.membrane_half_thickness : 0.0;
+    if (p.mesh.membrane || reach > 0) b = transformed_box(p.box, pose, (thick + 1 + reach) * impl_->max_width(b));
     int lo[3], hi[3];
     for (int a = 0; a < 3; ++a) index_range(g.axis[a].xc, 1, g.axis[a].n, b.lo[a], b.hi[a], lo[a], hi[a]);
 #pragma omp parallel for schedule(static)
@@ -846,7 +847,7 @@ std::vector<int> ImmersedBoundary::cell_owners(const std::vector<PartState>& sta
           const double h = std::max({g.axis[0].dc[std::size_t(i)], g.axis[1].dc[std::size_t(j)], g.axis[2].dc[std::size_t(k)]});
           const double v = impl_->phi(p, pose, x, h);
           const std::size_t c = (std::size_t(k - 1) * sh.ny + std::size_t(j - 1)) * sh.nx + std::size_t(i - 1);
-          if (v < 0 && (owner[c] < 0 || v < lowest[c])) {
+          if (v < reach * h && (owner[c] < 0 || v < lowest[c])) {
             owner[c] = int(n);
             lowest[c] = v;
           }

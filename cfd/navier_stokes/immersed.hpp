@@ -124,8 +124,9 @@ class ImmersedBoundary final : public StageHooks {
   std::vector<double> solid_mask(double t) const;
   // Which part holds each interior cell (x fastest) for the given part states (one per part): -1 where the cell's
   // centre lies in the fluid, else the index of the part whose level set is lowest there (solid as in solid_mask).
-  // The force partitioning's staircase fluid region.
-  std::vector<int> cell_owners(const std::vector<PartState>& states) const;
+  // The force partitioning's staircase fluid region. With reach > 0 a cell counts where the level set at its centre
+  // is below reach local widths instead of below 0 (reach 1: the cells of the forcing's band as well).
+  std::vector<int> cell_owners(const std::vector<PartState>& states, double reach = 0) const;
   // The level set that decides solid and fluid for part `part` placed at `state`, at world point x for a cell or
   // face of local width h (m): signed distance (negative inside) for a closed part; for a membrane the distance to
   // its mid-surface less the half thickness the forcing uses (membrane_half_thickness h).

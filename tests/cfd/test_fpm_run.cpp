@@ -213,8 +213,9 @@ TEST(FpmRun, MemoryCheckCountsThePotentials) {
 // on the forced faces. On the flapping wings (24 samples, both wings) the parts, taken in the form of the solver's last
 // Runge-Kutta stage, sum to that pressure force at every sample, to the potentials' tolerance (1e-4 of their
 // data): measured worst 4.1e-5 of the peak force (2.2e-12 with the potentials solved to 1e-10). Asserted within 1e-3.
-// It fails where the partition's forced faces are not the immersed boundary's: with the owned cells dilated by one
-// cell instead of three (fluid_geometry), the faces of the wings' bands past their tips were missed (worst 8.1e-2).
+// It fails where the partition's forced faces are not the immersed boundary's: with the faces tested only around the
+// cells the wings own (centres inside) instead of their forcing bands' cells (fluid_geometry's `near`), the faces of
+// the bands past their tips were missed (worst 8.1e-2).
 TEST(FpmRun, ForcedRegionBodyLeavesNothingOnForcedFaces) {
   const std::string keys = "samples_per_cycle = 12\ncomponents = [\"Fz\"]\nparts = [\"right\", \"left\"]\n";
   const Case c = fpm_case("fpm_widened.toml", keys + "body = \"forced-region\"\n");
