@@ -94,7 +94,8 @@ const std::vector<PotentialReport>& ForcePartition::update(const LevelFunction& 
     throw std::invalid_argument("force partitioning: the power potential needs the states of the " +
                                 std::to_string(parts) + " parts");
   const Grid& g = *grid_;
-  geometry_ = std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples, opt_.body, near));
+  geometry_ =
+      std::make_unique<FluidGeometry>(fluid_geometry(g, parts, level, owners, opt_.face_samples, opt_.body, near));
   const FluidGeometry& o = *geometry_;
   {
     auto next = std::make_unique<NeumannLaplacian>(g, o);
@@ -471,9 +472,10 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
         }
   }
 
-  // The widened body's kinematic term takes the rate in its volume form, -rho sum_open A_f (du_d/dt)_f (phi_c - phi_nb),
-  // which summed by parts is the closed faces' share above plus rho sum_cells phi_c V_c div(du/dt)_c: the divergence
-  // the projections leave over the last stage (zero if they were exact). Its weight of phi per active cell.
+  // The widened body's kinematic term takes the rate in its volume form, -rho sum_open A_f (du_d/dt)_f
+  // (phi_c - phi_nb), which summed by parts is the closed faces' share above plus rho sum_cells phi_c V_c
+  // div(du/dt)_c: the divergence the projections leave over the last stage (zero if they were exact). Its weight of
+  // phi per active cell.
   std::vector<double> rate_weight;
   if (staged) {
     rate_weight.assign(s.cells(), 0.0);

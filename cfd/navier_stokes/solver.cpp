@@ -387,7 +387,8 @@ StageCoefficients Solver::stage_coefficients(int k) {
 
 std::size_t Solver::bytes() const {
   // u, u*, N_prev, phi (3 each), p, div, the kept stage velocities (6), and the Poisson solver's vectors and levels.
-  return (14 + (opt_.keep_stage_velocities ? 6 : 0)) * grid_.shape().size() * sizeof(real) + poisson_.bytes() + flags_.size() * sizeof(CellFlag);
+  return (14 + (opt_.keep_stage_velocities ? 6 : 0)) * grid_.shape().size() * sizeof(real) + poisson_.bytes() +
+         flags_.size() * sizeof(CellFlag);
 }
 
 }  // namespace flapstab::ns
