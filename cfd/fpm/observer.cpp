@@ -97,8 +97,8 @@ std::size_t fpm_estimated_bytes(const ns::CfdPlan& plan, const FpmSettings& sett
   // fields 5; the geometry (3 apertures, volume fraction) 4; the Laplacian of u 3, Q 1, the transient centre fields 7
   // and the right-hand side 1; owners and region labels (4 bytes each) 1; the forced-face flags (3 bytes) 1; with the
   // forced region as the body the solver's two kept stage velocities 6 (its faces' u . grad u, 1, takes a centre
-  // field's place), and with a sponge layer the predicted velocity of the last stage 3
-  const std::size_t stages = settings.body == "forced-region" ? 6 + (plan.sponge_width > 0 ? 3 : 0) : 0;
+  // field's place), and with a sponge layer the predicted velocity of the last stage and a scratch field 4
+  const std::size_t stages = settings.body == "forced-region" ? 6 + (plan.sponge_width > 0 ? 4 : 0) : 0;
   return (potentials + 8 + 5 + 4 + 3 + 1 + 7 + 1 + 1 + 1 + stages) * field;
 }
 

@@ -329,20 +329,10 @@ std::vector<PartPartition> ForcePartition::partition(const ns::Solver& solver, c
   ns::VectorField sponge_area;  // f beta A per open face; zero elsewhere
   if (sponge) {
     sponge_area = ns::VectorField(s);
-    if (staged) {
-      ns::VectorField predicted = u;
-      const Field& increment = solver.pressure_increments()[2];
-      for (int d = 0; d < 3; ++d) {
-        const ns::Axis& ad = g.axis[std::size_t(d)];
-        const std::ptrdiff_t st = s.stride(d);
-        for (int kk = 1; kk <= s.nz; ++kk)
-          for (int j = 1; j <= s.ny; ++j)
-            for (int ii = 1; ii <= s.nx; ++ii) {
-              const int I[3] = {ii, j, kk};
-              const std::ptrdiff_t n = s(ii, j, kk);
-              predicted[d][n] += adt * (increment[n] - increment[n - st]) * ad.idf[std::size_t(I[d])];
-            }
-      }
+    if (staged) {  // the solver's projection run backwards: u* = u + alpha dt grad(phi_3)
+      ns::VectorField predicted(s);
+      Field scratch(s);  // the projection's pressure update, not needed here
+      ns::project(g, u, solver.pressure_increments()[2], predicted, scratch, -adt);
       solver.sponge_force(predicted, sponge_area);
     } else {
       solver.sponge_force(u, sponge_area);
