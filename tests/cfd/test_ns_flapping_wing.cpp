@@ -266,8 +266,12 @@ TEST(FlappingRoboflyKinematics, QuasiSteadyHistoriesOfFig3Timings) {
   }
 }
 
-// CI: the three rotation timings of Fig. 3 (advanced t_adv = +0.08, FLUSI's default; symmetrical; delayed
-// -0.08), c_bar / 8 in the fine box, two wingbeats each, the second reported.
+// Coarse (c_bar / 8 in the fine box, two wingbeats each, the second reported): the three rotation timings of Fig. 3
+// (advanced t_adv = +0.08, FLUSI's default; symmetrical; delayed -0.08). Out of the CI suite since 2026-12-08 (about
+// 4 min on one thread, the suite's longest test; the CI has a 30-minute budget on 2 cores); run it by name:
+//   ./build/tests/test_cfd --gtest_also_run_disabled_tests --gtest_filter='*RoboflyRotationTimingOrdersTheLift'
+// The same ordering is printed on c_bar / 12 and c_bar / 16 by
+// ImmersedStudy.DISABLED_FlappingRoboflyTimingRatiosMedium.
 // Asserted: (1) the published ordering of the mean lift with the rotation timing, the one statement about these
 // kinematics the searchable sources confirm (Sun & Tang 2002, J Exp Biol 205:2413, abstract, from their CFD of
 // the same three timings; Dickinson et al. 1999 report the same in kind): advanced rotation gives more lift
@@ -278,7 +282,7 @@ TEST(FlappingRoboflyKinematics, QuasiSteadyHistoriesOfFig3Timings) {
 // Findings) — an open disagreement between the CFD and the model that no measurement available here can
 // settle. The lift checks stay in the converged test (ImmersedConverged.DISABLED_FlappingRoboflyAdvanced),
 // where they fail until it is resolved.
-TEST(ImmersedFlappingWing, RoboflyRotationTimingOrdersTheLift) {
+TEST(ImmersedFlappingWing, DISABLED_RoboflyRotationTimingOrdersTheLift) {
   const FlappingResult adv = run_flapping(0.08, 8, 1.1, 2), sym = run_flapping(0.0, 8, 1.1, 2),
                        del = run_flapping(-0.08, 8, 1.1, 2);
   print("advanced", adv);
